@@ -1,0 +1,122 @@
+#pragma once
+// The one search API every library adapter and our own structures implement.
+//
+// Glossary: ranged search = k nearest within max_dist = nanoflann rknnSearch = Open3D SearchHybrid
+// = libnabo knn(..., maxRadius). k-NN = ranged with an infinite limit. Radius search = every point
+// within a radius. A point at exactly the limit counts (inclusive) in every query kind and adapter.
+#include "nnb/cloud.hpp"
+#include "nnb/neighbours.hpp"
+
+#include <cstddef>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace nnb {
+
+enum class SearchKind { knn, radius, ranged };
+
+/// How an adapter answers one query kind: this is what the paper compares, so it is data.
+enum class Strategy {
+  native,      ///< the library answers this query itself
+  via_knn,     ///< k-NN search, then drop what lies beyond the limit (ranged)
+  via_radius,  ///< radius search, then keep the k nearest (ranged)
+  via_box,     ///< box intersection, then an exact distance filter (radius on R-trees)
+};
+
+const char* to_string(SearchKind kind);
+const char* to_string(Strategy strategy);
+/// Parses "knn", "radius" or "ranged"; throws InputError otherwise.
+SearchKind parse_search_kind(const std::string& text);
+
+/// Adapter parameters by name (e.g. "bucket_size" -> "10"), as given by a user or reported back.
+using Params = std::map<std::string, std::string>;
+
+/// What an adapter is: the columns of the paper's Table 1, and more.
+struct AdapterInfo {
+  std::string name;       ///< registry name, e.g. "flann_kdtree"
+  std::string library;    ///< e.g. "FLANN"
+  std::string version;    ///< the library's version, read from its headers
+  std::string structure;  ///< e.g. "k-d tree", "octree", "R*-tree"
+  std::string scalar;     ///< precision the library computes in: "float" or "double"
+  Strategy knn = Strategy::native;
+  Strategy radius = Strategy::native;
+  Strategy ranged = Strategy::via_knn;
+  bool exact = true;      ///< false for approximate searches, which are never cross-checked as exact
+  Params params;          ///< effective parameters, defaults included
+  std::string notes;      ///< workarounds the adapter applies, in one line
+
+  Strategy strategy(SearchKind kind) const;
+};
+
+/// A spatial index over one model cloud, answering whole query sets at a time.
+///
+/// Public calls validate their input and throw InputError with a one-line message; declared
+/// emulations (ranged via k-NN or via radius) are carried out here, once for every adapter.
+class SearchIndex {
+ public:
+  explicit SearchIndex(AdapterInfo info) : info_(std::move(info)) {}
+  virtual ~SearchIndex() = default;
+  SearchIndex(const SearchIndex&) = delete;
+  SearchIndex& operator=(const SearchIndex&) = delete;
+
+  const AdapterInfo& info() const { return info_; }
+
+  /// Builds the index over model (copied or referenced as the library needs; keep it alive).
+  void build(const Cloud& model);
+  /// The k nearest points of each query (fewer when the model is smaller), nearest first.
+  void knn(const Cloud& queries, int k, Neighbours& out) const;
+  /// Every point within radius_m (metres, inclusive) of each query, in the library's order.
+  void radius(const Cloud& queries, double radius_m, Neighbours& out) const;
+  /// The k nearest points within max_dist_m (metres, inclusive) of each query, nearest first.
+  void ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const;
+
+  /// Bytes the index holds beyond the model points themselves (nodes, buckets, copies).
+  virtual std::size_t index_bytes() const = 0;
+  /// Number of points in the model the index was built on (0 before build).
+  std::size_t model_size() const { return model_size_; }
+
+ protected:
+  AdapterInfo& mutable_info() { return info_; }
+  virtual void do_build(const Cloud& model) = 0;
+  virtual void do_knn(const Cloud& queries, int k, Neighbours& out) const = 0;
+  /// Called when info().radius is native or via_box.
+  virtual void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const;
+  /// Called when info().ranged is native.
+  virtual void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const;
+
+ private:
+  void check_queries(const Cloud& queries) const;
+  AdapterInfo info_;
+  std::size_t model_size_ = 0;
+};
+
+/// Reads typed parameters for an adapter and rejects names it does not know.
+class ParamReader {
+ public:
+  ParamReader(std::string adapter, Params given) : adapter_(std::move(adapter)), given_(std::move(given)) {}
+  /// Integer parameter in [min, max], default when absent; records the effective value.
+  int get_int(const std::string& name, int fallback, int min, int max);
+  /// Real parameter in [min, max], default when absent; records the effective value.
+  double get_double(const std::string& name, double fallback, double min, double max);
+  /// One of the allowed words, default when absent; records the effective value.
+  std::string get_choice(const std::string& name, const std::string& fallback,
+                         const std::vector<std::string>& allowed);
+  /// Throws InputError if a given parameter was never read; returns the effective parameters.
+  Params finish() const;
+
+ private:
+  std::string adapter_;
+  Params given_;
+  Params effective_;
+};
+
+/// Recomputes every squared distance of out in double precision from the model and queries:
+/// float libraries use it so that every adapter reports the same exact distances.
+void recompute_sq_dists(const Cloud& model, const Cloud& queries, Neighbours& out);
+/// Keeps, per query, the entries with sq_dist <= limit_sq_m2 (keeps their order).
+void filter_by_sq_dist(double limit_sq_m2, Neighbours& out);
+/// Sorts each query's entries by (sq_dist, index) and keeps at most k of them.
+void sort_and_truncate(std::size_t k, Neighbours& out);
+
+}  // namespace nnb

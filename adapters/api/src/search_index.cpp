@@ -1,0 +1,241 @@
+#include "nnb/search_index.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+namespace nnb {
+
+const char* to_string(SearchKind kind) {
+  switch (kind) {
+    case SearchKind::knn: return "knn";
+    case SearchKind::radius: return "radius";
+    case SearchKind::ranged: return "ranged";
+  }
+  return "?";
+}
+
+const char* to_string(Strategy strategy) {
+  switch (strategy) {
+    case Strategy::native: return "native";
+    case Strategy::via_knn: return "via_knn";
+    case Strategy::via_radius: return "via_radius";
+    case Strategy::via_box: return "via_box";
+  }
+  return "?";
+}
+
+SearchKind parse_search_kind(const std::string& text) {
+  if (text == "knn") return SearchKind::knn;
+  if (text == "radius") return SearchKind::radius;
+  if (text == "ranged") return SearchKind::ranged;
+  throw InputError("unknown search kind '" + text + "' (expected knn, radius or ranged)");
+}
+
+Strategy AdapterInfo::strategy(SearchKind kind) const {
+  switch (kind) {
+    case SearchKind::knn: return knn;
+    case SearchKind::radius: return radius;
+    case SearchKind::ranged: return ranged;
+  }
+  return knn;
+}
+
+namespace {
+
+void check_k(const std::string& adapter, int k) {
+  if (k < 1) throw InputError(adapter + ": k must be at least 1 (got " + std::to_string(k) + ")");
+}
+
+void check_distance(const std::string& adapter, const char* what, double value_m) {
+  if (!std::isfinite(value_m) || value_m < 0.0) {
+    std::ostringstream msg;
+    msg << adapter << ": " << what << " must be a finite distance >= 0 m (got " << value_m << ")";
+    throw InputError(msg.str());
+  }
+}
+
+}  // namespace
+
+void SearchIndex::build(const Cloud& model) {
+  if (model.cols() == 0) throw InputError(info_.name + ": the model cloud is empty, nothing to search");
+  if (static_cast<std::uint64_t>(model.cols()) >= std::numeric_limits<PointIndex>::max()) {
+    throw InputError(info_.name + ": the model cloud has too many points for 32-bit indices");
+  }
+  if (const auto bad = first_non_finite(model); bad >= 0) {
+    throw InputError(info_.name + ": model point " + std::to_string(bad) + " has a non-finite coordinate");
+  }
+  model_size_ = 0;
+  do_build(model);
+  model_size_ = static_cast<std::size_t>(model.cols());
+}
+
+void SearchIndex::check_queries(const Cloud& queries) const {
+  if (model_size_ == 0) throw InputError(info_.name + ": search before build");
+  if (const auto bad = first_non_finite(queries); bad >= 0) {
+    throw InputError(info_.name + ": query point " + std::to_string(bad) + " has a non-finite coordinate");
+  }
+}
+
+void SearchIndex::knn(const Cloud& queries, int k, Neighbours& out) const {
+  check_k(info_.name, k);
+  check_queries(queries);
+  do_knn(queries, k, out);
+}
+
+void SearchIndex::radius(const Cloud& queries, double radius_m, Neighbours& out) const {
+  check_distance(info_.name, "radius", radius_m);
+  check_queries(queries);
+  do_radius(queries, radius_m, out);
+}
+
+void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const {
+  check_k(info_.name, k);
+  check_distance(info_.name, "max_dist", max_dist_m);
+  check_queries(queries);
+  switch (info_.ranged) {
+    case Strategy::via_knn:
+      do_knn(queries, k, out);
+      filter_by_sq_dist(max_dist_m * max_dist_m, out);
+      return;
+    case Strategy::via_radius:
+      do_radius(queries, max_dist_m, out);
+      sort_and_truncate(static_cast<std::size_t>(k), out);
+      return;
+    default:
+      do_ranged(queries, k, max_dist_m, out);
+  }
+}
+
+void SearchIndex::do_radius(const Cloud&, double, Neighbours&) const {
+  throw std::logic_error(info_.name + " declares a radius strategy but does not implement it");
+}
+
+void SearchIndex::do_ranged(const Cloud&, int, double, Neighbours&) const {
+  throw std::logic_error(info_.name + " declares native ranged search but does not implement it");
+}
+
+int ParamReader::get_int(const std::string& name, int fallback, int min, int max) {
+  int value = fallback;
+  if (const auto it = given_.find(name); it != given_.end()) {
+    std::size_t used = 0;
+    try {
+      value = std::stoi(it->second, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != it->second.size()) {
+      throw InputError(adapter_ + ": parameter " + name + " must be an integer (got '" + it->second + "')");
+    }
+  }
+  if (value < min || value > max) {
+    throw InputError(adapter_ + ": parameter " + name + " must lie in [" + std::to_string(min) + ", " +
+                     std::to_string(max) + "] (got " + std::to_string(value) + ")");
+  }
+  effective_[name] = std::to_string(value);
+  return value;
+}
+
+double ParamReader::get_double(const std::string& name, double fallback, double min, double max) {
+  double value = fallback;
+  if (const auto it = given_.find(name); it != given_.end()) {
+    std::size_t used = 0;
+    try {
+      value = std::stod(it->second, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != it->second.size() || !std::isfinite(value)) {
+      throw InputError(adapter_ + ": parameter " + name + " must be a number (got '" + it->second + "')");
+    }
+  }
+  if (value < min || value > max) {
+    std::ostringstream msg;
+    msg << adapter_ << ": parameter " << name << " must lie in [" << min << ", " << max << "] (got " << value
+        << ")";
+    throw InputError(msg.str());
+  }
+  std::ostringstream text;
+  text << value;
+  effective_[name] = text.str();
+  return value;
+}
+
+std::string ParamReader::get_choice(const std::string& name, const std::string& fallback,
+                                    const std::vector<std::string>& allowed) {
+  std::string value = fallback;
+  if (const auto it = given_.find(name); it != given_.end()) value = it->second;
+  if (std::find(allowed.begin(), allowed.end(), value) == allowed.end()) {
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+    throw InputError(adapter_ + ": parameter " + name + " must be one of " + list + " (got '" + value + "')");
+  }
+  effective_[name] = value;
+  return value;
+}
+
+Params ParamReader::finish() const {
+  for (const auto& [name, value] : given_) {
+    if (effective_.count(name) == 0) {
+      std::string known;
+      for (const auto& [k, v] : effective_) known += (known.empty() ? "" : ", ") + k;
+      throw InputError(adapter_ + ": unknown parameter '" + name + "' (known: " +
+                       (known.empty() ? std::string("none") : known) + ")");
+    }
+  }
+  return effective_;
+}
+
+void recompute_sq_dists(const Cloud& model, const Cloud& queries, Neighbours& out) {
+  for (std::size_t q = 0; q < out.n_queries(); ++q) {
+    const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
+    for (std::size_t i = out.offsets[q]; i < out.offsets[q + 1]; ++i) {
+      out.sq_dists[i] = sq_dist_m2(query, model.col(out.indices[i]).data());
+    }
+  }
+}
+
+void filter_by_sq_dist(double limit_sq_m2, Neighbours& out) {
+  std::size_t write = 0;
+  std::size_t begin = 0;
+  for (std::size_t q = 0; q < out.n_queries(); ++q) {
+    const std::size_t end = out.offsets[q + 1];
+    for (std::size_t i = begin; i < end; ++i) {
+      if (out.sq_dists[i] <= limit_sq_m2) {
+        out.indices[write] = out.indices[i];
+        out.sq_dists[write] = out.sq_dists[i];
+        ++write;
+      }
+    }
+    begin = end;
+    out.offsets[q + 1] = write;
+  }
+  out.indices.resize(write);
+  out.sq_dists.resize(write);
+}
+
+void sort_and_truncate(std::size_t k, Neighbours& out) {
+  std::vector<std::pair<double, PointIndex>> row;
+  std::size_t write = 0;
+  std::size_t begin = 0;
+  for (std::size_t q = 0; q < out.n_queries(); ++q) {
+    const std::size_t end = out.offsets[q + 1];
+    row.clear();
+    for (std::size_t i = begin; i < end; ++i) row.emplace_back(out.sq_dists[i], out.indices[i]);
+    const std::size_t keep = std::min(k, row.size());
+    std::partial_sort(row.begin(), row.begin() + static_cast<std::ptrdiff_t>(keep), row.end());
+    for (std::size_t i = 0; i < keep; ++i) {
+      out.sq_dists[write] = row[i].first;
+      out.indices[write] = row[i].second;
+      ++write;
+    }
+    begin = end;
+    out.offsets[q + 1] = write;
+  }
+  out.indices.resize(write);
+  out.sq_dists.resize(write);
+}
+
+}  // namespace nnb

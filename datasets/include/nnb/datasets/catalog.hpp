@@ -1,0 +1,47 @@
+#pragma once
+// Every data set by name: the four synthetic shapes, the real pairs of datasets/manifest.json, and
+// plain file paths. This is what nns_query, run_sweep and run_icp accept for --model and --query.
+#include "nnb/cloud.hpp"
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nnb::datasets {
+
+enum class Role { model, query };
+
+struct DataOptions {
+  std::string data_dir;                 ///< real scans; empty = default_data_dir()
+  std::size_t synthetic_points = 60000; ///< points per synthetic set (the paper's 60,000)
+  std::uint64_t seed = 1;               ///< seed of every synthetic set
+  bool verify_checksums = true;         ///< check every real file against its sha256 in the manifest
+};
+
+/// A cloud ready to search, with where it came from.
+struct NamedCloud {
+  std::string name;         ///< the spec it was resolved from (shape, pair or path)
+  std::string kind;         ///< "synthetic", "real_pair" or "file"
+  std::string source;       ///< file path(s) read, or the generator and seed
+  std::string sha256;       ///< of the file read (empty for synthetic sets)
+  std::uint64_t seed = 0;   ///< synthetic sets only
+  Cloud points;             ///< metres, invalid points dropped
+  std::size_t n_read = 0;   ///< points in the source before dropping
+  std::size_t n_dropped = 0;///< non-finite or (0,0,0) placeholder points dropped
+  Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  ///< applied to the points (query of a real pair)
+};
+
+/// The data directory: NNB_DATA_DIR if set, else the build's default (../shared/datasets/real).
+std::string default_data_dir();
+/// Names of the synthetic shapes and real pairs, for help texts and errors.
+std::vector<std::string> dataset_names();
+
+/// Resolves a shape name, a real pair name (as model: the pair's model scan; as query: the pair's query
+/// scan moved by the pair's reference pose, or its initial pose when there is none) or a file path.
+/// Throws InputError with one line for an unknown name, a missing, malformed or mismatching file, or
+/// a cloud left empty after dropping invalid points.
+NamedCloud resolve_cloud(const std::string& spec, Role role, const DataOptions& options);
+
+}  // namespace nnb::datasets

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Installs every system package the project needs, from Debian. Idempotent: does nothing
+# when all packages are present. See ../shared/DEPENDENCIES.md for the verified list.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ninja-build git pkg-config
+  libeigen3-dev libnanoflann-dev libflann-dev libann-dev libspatialindex-dev
+  libcgal-dev libpcl-dev libopen3d-dev libtbb-dev nlohmann-json3-dev
+  libbenchmark-dev libgtest-dev libcli11-dev
+  python3 python3-matplotlib python3-numpy
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install_deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
