@@ -1,0 +1,261 @@
+// Every adapter in the registry, every query kind, against brute force: on every synthetic shape with
+// queries on, near and far from the model, at distances that include 0, an existing distance and one
+// larger than the cloud; then the edge cases by name.
+#include "cross_check.hpp"
+#include "nnb/datasets/synthetic.hpp"
+
+#include <random>
+
+namespace {
+
+using nnb::Cloud;
+using nnb::Neighbours;
+using nnb::SearchKind;
+using nnb::datasets::make_shape;
+using nnb::datasets::Shape;
+using nnb::testing::compare_with_reference;
+
+std::vector<std::string> adapters_under_test() {
+  std::vector<std::string> names;
+  for (const auto& name : nnb::adapter_names()) {
+    if (name != "brute_force" && nnb::make_adapter(name)->info().exact) names.push_back(name);
+  }
+  return names;
+}
+
+// Queries on the model (copies of model points), near it (jittered by up to 2 cm) and far from it.
+Cloud queries_for(const Cloud& model, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<Eigen::Index> pick(0, model.cols() - 1);
+  std::uniform_real_distribution<double> jitter(-0.02, 0.02);
+  const Eigen::Index per_group = 150;
+  Cloud q(3, 3 * per_group);
+  for (Eigen::Index i = 0; i < per_group; ++i) {
+    q.col(i) = model.col(pick(rng));
+    q.col(per_group + i) = model.col(pick(rng)) + Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng));
+    q.col(2 * per_group + i) = 1.8 * model.col(pick(rng)) + Eigen::Vector3d(0.3, -0.2, 0.1);
+  }
+  return q;
+}
+
+struct Case {
+  std::string adapter;
+  SearchKind kind;
+};
+
+class CrossCheck : public ::testing::TestWithParam<Case> {
+ protected:
+  // Runs one query kind on both indexes for every distance and k of interest, comparing each time.
+  void check_all(const Cloud& model, const Cloud& queries, const std::string& data_name) {
+    auto reference = nnb::make_adapter("brute_force");
+    auto index = nnb::make_adapter(GetParam().adapter);
+    reference->build(model);
+    index->build(model);
+
+    // An existing distance: the nearest model point to query 200 (near group), exactly.
+    Neighbours probe;
+    reference->knn(queries.middleCols(200, 1), 1, probe);
+    const double existing_m = std::sqrt(probe.sq_dists[0]);
+    const std::vector<double> dists_m{0.0, 0.005, 0.03, existing_m, 0.2, 5.0};
+
+    Neighbours expected, got;
+    const auto compare = [&](const std::string& what, bool sorted_rows) {
+      const std::string failure = compare_with_reference(model, queries, expected, got, sorted_rows);
+      EXPECT_EQ(failure, "") << GetParam().adapter << " " << what << " on " << data_name;
+      return failure.empty();
+    };
+    switch (GetParam().kind) {
+      case SearchKind::knn:
+        for (int k : {1, 7}) {
+          reference->knn(queries, k, expected);
+          index->knn(queries, k, got);
+          if (!compare("knn k=" + std::to_string(k), true)) return;
+        }
+        break;
+      case SearchKind::radius:
+        for (double r : dists_m) {
+          if (r > 1.0) continue;  // all-pairs radius on every query adds nothing but time
+          reference->radius(queries, r, expected);
+          index->radius(queries, r, got);
+          if (!compare("radius r=" + std::to_string(r) + " m", false)) return;
+        }
+        break;
+      case SearchKind::ranged:
+        for (int k : {1, 4}) {
+          for (double d : dists_m) {
+            reference->ranged(queries, k, d, expected);
+            index->ranged(queries, k, d, got);
+            if (!compare("ranged k=" + std::to_string(k) + " max_dist=" + std::to_string(d) + " m", true)) return;
+          }
+        }
+        break;
+    }
+  }
+};
+
+TEST_P(CrossCheck, SyntheticShapes) {
+  for (const auto& name : nnb::datasets::shape_names()) {
+    const Cloud model = make_shape(*nnb::datasets::parse_shape(name), 3000, 11);
+    check_all(model, queries_for(model, 5), name);
+  }
+}
+
+TEST_P(CrossCheck, ModelAndQueriesOfDifferentShapes) {
+  // The paper's Figure 3 pair: hollow cube queries against a hollow sphere model.
+  check_all(make_shape(Shape::hollow_sphere, 3000, 2), make_shape(Shape::hollow_cube, 450, 3),
+            "hollow_cube->hollow_sphere");
+}
+
+std::vector<Case> all_cases() {
+  std::vector<Case> cases;
+  for (const auto& name : adapters_under_test()) {
+    for (auto kind : {SearchKind::knn, SearchKind::radius, SearchKind::ranged}) cases.push_back({name, kind});
+  }
+  return cases;
+}
+
+std::string case_name(const ::testing::TestParamInfo<Case>& info) {
+  return info.param.adapter + "_" + nnb::to_string(info.param.kind);
+}
+
+GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(CrossCheck);
+INSTANTIATE_TEST_SUITE_P(EveryAdapter, CrossCheck, ::testing::ValuesIn(all_cases()), case_name);
+
+// ---- Edge cases, by name, for every adapter ----
+
+class EdgeCase : public ::testing::TestWithParam<std::string> {
+ protected:
+  // Every query kind on (model, queries) at the given k and distance, compared with brute force.
+  void expect_same_as_brute_force(const Cloud& model, const Cloud& queries, int k, double dist_m) {
+    auto reference = nnb::make_adapter("brute_force");
+    auto index = nnb::make_adapter(GetParam());
+    reference->build(model);
+    index->build(model);
+    Neighbours expected, got;
+    reference->knn(queries, k, expected);
+    index->knn(queries, k, got);
+    EXPECT_EQ(compare_with_reference(model, queries, expected, got, true), "") << "knn";
+    reference->radius(queries, dist_m, expected);
+    index->radius(queries, dist_m, got);
+    EXPECT_EQ(compare_with_reference(model, queries, expected, got, false), "") << "radius";
+    reference->ranged(queries, k, dist_m, expected);
+    index->ranged(queries, k, dist_m, got);
+    EXPECT_EQ(compare_with_reference(model, queries, expected, got, true), "") << "ranged";
+  }
+};
+
+Cloud points(std::initializer_list<std::array<double, 3>> list) {
+  Cloud c(3, static_cast<Eigen::Index>(list.size()));
+  Eigen::Index i = 0;
+  for (const auto& p : list) c.col(i++) << p[0], p[1], p[2];
+  return c;
+}
+
+TEST_P(EdgeCase, ModelOfOnePoint) {
+  expect_same_as_brute_force(points({{0.5, -0.25, 2.0}}), points({{0.5, -0.25, 2.0}, {0, 0, 0}, {9, 9, 9}}), 3,
+                             2.5);
+}
+
+TEST_P(EdgeCase, AllPointsEqual) {
+  const Cloud model = Cloud::Constant(3, 200, 0.125);
+  expect_same_as_brute_force(model, points({{0.125, 0.125, 0.125}, {0.2, 0.1, 0.1}}), 5, 0.0);
+  expect_same_as_brute_force(model, points({{0.125, 0.125, 0.125}, {0.2, 0.1, 0.1}}), 5, 0.1);
+}
+
+TEST_P(EdgeCase, KLargerThanTheModel) {
+  const Cloud model = make_shape(Shape::filled_cube, 20, 4);
+  expect_same_as_brute_force(model, make_shape(Shape::hollow_sphere, 30, 5), 50, 10.0);
+}
+
+TEST_P(EdgeCase, QueryExactlyOnAPoint) {
+  const Cloud model = make_shape(Shape::filled_sphere, 500, 6);
+  expect_same_as_brute_force(model, model.leftCols(40), 1, 0.0);
+  expect_same_as_brute_force(model, model.leftCols(40), 3, 0.05);
+}
+
+TEST_P(EdgeCase, PointExactlyAtMaxDist) {
+  // 0.5 m and 0.25 m are exact in float and double: the points at exactly the limit must be found.
+  const Cloud model = points({{0, 0, 0}, {0.5, 0, 0}, {0, 0.25, 0}, {0, 0, -0.5}, {1, 1, 1}});
+  expect_same_as_brute_force(model, points({{0, 0, 0}}), 4, 0.5);
+  auto index = nnb::make_adapter(GetParam());
+  index->build(model);
+  Neighbours got;
+  index->ranged(points({{0, 0, 0}}), 4, 0.5, got);
+  EXPECT_EQ(got.count(0), 4u) << nnb::testing::row_text(got, 0);
+  index->radius(points({{0, 0.5, 0}}), 0.25, got);
+  EXPECT_EQ(got.count(0), 1u) << nnb::testing::row_text(got, 0);
+}
+
+TEST_P(EdgeCase, MaxDistZeroWithQueriesEqualToModel) {
+  // The paper's filled sphere against itself: at max_dist 0 every query finds itself.
+  const Cloud model = make_shape(Shape::filled_sphere, 4000, 9);
+  auto index = nnb::make_adapter(GetParam());
+  index->build(model);
+  Neighbours got;
+  index->ranged(model, 1, 0.0, got);
+  ASSERT_EQ(got.n_queries(), 4000u);
+  EXPECT_EQ(got.queries_with_neighbours(), 4000u);
+  for (double sq : got.sq_dists) ASSERT_EQ(sq, 0.0);
+}
+
+TEST_P(EdgeCase, EmptyModelIsRefused) {
+  auto index = nnb::make_adapter(GetParam());
+  EXPECT_THROW(index->build(Cloud(3, 0)), nnb::InputError);
+}
+
+TEST_P(EdgeCase, EmptyQuerySetGivesEmptyResult) {
+  auto index = nnb::make_adapter(GetParam());
+  index->build(make_shape(Shape::filled_cube, 100, 1));
+  Neighbours got;
+  index->ranged(Cloud(3, 0), 1, 0.5, got);
+  EXPECT_EQ(got.n_queries(), 0u);
+}
+
+TEST_P(EdgeCase, DeclaresItselfCompletely) {
+  const auto index = nnb::make_adapter(GetParam());
+  const auto& info = index->info();
+  EXPECT_EQ(info.name, GetParam());
+  EXPECT_FALSE(info.library.empty());
+  EXPECT_FALSE(info.version.empty());
+  EXPECT_FALSE(info.structure.empty());
+  EXPECT_TRUE(info.scalar == "float" || info.scalar == "double") << info.scalar;
+  EXPECT_TRUE(info.ranged == nnb::Strategy::native || info.ranged == nnb::Strategy::via_knn ||
+              info.ranged == nnb::Strategy::via_radius);
+  index->build(make_shape(Shape::filled_cube, 1000, 1));
+  if (GetParam() != "brute_force") {
+    EXPECT_GT(index->index_bytes(), 0u);
+  }
+}
+
+// The comparison itself must be able to fail: a wrong neighbour, a missing one, a duplicate, an unsorted row.
+TEST(CrossCheckHarness, DetectsWrongAnswers) {
+  const Cloud model = points({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}});
+  const Cloud queries = points({{0.1, 0, 0}});
+  auto reference = nnb::make_adapter("brute_force");
+  reference->build(model);
+  Neighbours expected;
+  reference->knn(queries, 2, expected);
+  ASSERT_EQ(compare_with_reference(model, queries, expected, expected, true), "");
+  Neighbours wrong = expected;
+  wrong.indices[1] = 2;  // distance no longer matches
+  EXPECT_NE(compare_with_reference(model, queries, expected, wrong, true), "");
+  wrong = expected;
+  std::swap(wrong.indices[0], wrong.indices[1]);
+  std::swap(wrong.sq_dists[0], wrong.sq_dists[1]);
+  EXPECT_NE(compare_with_reference(model, queries, expected, wrong, true), "");  // unsorted
+  EXPECT_EQ(compare_with_reference(model, queries, expected, wrong, false), "");  // radius rows may be unsorted
+  wrong = expected;
+  wrong.indices[1] = wrong.indices[0];
+  wrong.sq_dists[1] = wrong.sq_dists[0];
+  EXPECT_NE(compare_with_reference(model, queries, expected, wrong, true), "");  // duplicate
+  wrong.reset();
+  wrong.push(0, 0.01);
+  wrong.end_query();
+  EXPECT_NE(compare_with_reference(model, queries, expected, wrong, true), "");  // one missing
+}
+
+GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(EdgeCase);
+INSTANTIATE_TEST_SUITE_P(EveryAdapter, EdgeCase, ::testing::ValuesIn(adapters_under_test()),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
