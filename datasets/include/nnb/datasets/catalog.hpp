@@ -2,10 +2,12 @@
 // Every data set by name: the four synthetic shapes, the real pairs of datasets/manifest.json, and
 // plain file paths. This is what nns_query, run_sweep and run_icp accept for --model and --query.
 #include "nnb/cloud.hpp"
+#include "nnb/datasets/manifest.hpp"
 
 #include <Eigen/Geometry>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,6 +20,7 @@ struct DataOptions {
   std::size_t synthetic_points = 60000; ///< points per synthetic set (the paper's 60,000)
   std::uint64_t seed = 1;               ///< seed of every synthetic set
   bool verify_checksums = true;         ///< check every real file against its sha256 in the manifest
+  std::string file_format;              ///< plain file paths: a PointFormat name; empty = by extension
 };
 
 /// A cloud ready to search, with where it came from.
@@ -43,5 +46,22 @@ std::vector<std::string> dataset_names();
 /// Throws InputError with one line for an unknown name, a missing, malformed or mismatching file, or
 /// a cloud left empty after dropping invalid points.
 NamedCloud resolve_cloud(const std::string& spec, Role role, const DataOptions& options);
+
+/// Which pose of a real pair: ground truth, initial guess, or a non-ground-truth estimate.
+enum class PoseKind { reference, initial, estimate };
+
+/// The real pair of that name from the manifest, or nothing.
+std::optional<RealPair> find_pair(const std::string& name);
+/// The real pair of that name; InputError listing the known names if there is none.
+RealPair require_pair(const std::string& name);
+/// Full path of a file of the pair: data_dir (or default_data_dir()) / folder / file.
+std::string pair_file_path(const RealPair& pair, const std::string& file, const DataOptions& options);
+/// Throws InputError naming the file, expected and actual hash if the file's sha256 differs.
+void verify_sha256(const std::string& path, const std::string& expected_sha256);
+/// The pair's pose of that kind as T_model_query with translation in metres (file sha256-checked when
+/// options.verify_checksums). Nothing when the pair lists none, except initial: identity then.
+std::optional<Eigen::Matrix4d> load_pair_pose(const RealPair& pair, PoseKind kind, const DataOptions& options);
+/// The pair's model scan (Role::model) or query scan (Role::query) as read, in metres, not moved.
+NamedCloud load_pair_scan(const RealPair& pair, Role role, const DataOptions& options);
 
 }  // namespace nnb::datasets

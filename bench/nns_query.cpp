@@ -1,0 +1,157 @@
+// nns_query: answer one query set with one adapter and write every neighbour found as CSV.
+// The tool a user reaches for to check any library's answer, and its speed, by hand.
+#include "cli_common.hpp"
+
+#include "nnb/datasets/catalog.hpp"
+#include "nnb/registry.hpp"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <cmath>
+#include <numeric>
+
+namespace {
+
+struct Options {
+  std::string model, query, adapter = "brute_force", search = "ranged", out, stats;
+  int k = 1;
+  double max_dist_m = 0.1;
+  int repeat = 1;
+  std::vector<std::string> params;
+  nnb::datasets::DataOptions data;
+  bool list = false, table1 = false;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// One CSV row per neighbour, sorted by query then distance (then index, for ties); metres, not squared.
+std::string to_csv(const nnb::Neighbours& found) {
+  std::string text = "query,neighbor,distance\n";
+  std::vector<std::pair<double, nnb::PointIndex>> row;
+  char number[64];
+  for (std::size_t q = 0; q < found.n_queries(); ++q) {
+    row.clear();
+    for (std::size_t i = found.offsets[q]; i < found.offsets[q + 1]; ++i) {
+      row.emplace_back(found.sq_dists[i], found.indices[i]);
+    }
+    std::sort(row.begin(), row.end());
+    for (const auto& [sq, index] : row) {
+      const auto end = std::to_chars(number, number + sizeof number, std::sqrt(sq)).ptr;
+      text += std::to_string(q) + ',' + std::to_string(index) + ',' + std::string(number, end) + '\n';
+    }
+  }
+  return text;
+}
+
+int run(const Options& opt) {
+  if (opt.list) {
+    nnb::cli::print_adapter_list(std::cout);
+    return 0;
+  }
+  if (opt.table1) {
+    std::cout << nnb::cli::table1_markdown();
+    return 0;
+  }
+  if (opt.model.empty() || opt.query.empty()) throw nnb::InputError("--model and --query are required");
+  if (opt.repeat < 1) throw nnb::InputError("--repeat must be at least 1");
+  const nnb::SearchKind kind = nnb::parse_search_kind(opt.search);
+  auto index = nnb::make_adapter(opt.adapter, nnb::cli::parse_params(opt.params));
+  nnb::cli::warn_if_not_release(std::cerr);
+
+  const auto model = nnb::datasets::resolve_cloud(opt.model, nnb::datasets::Role::model, opt.data);
+  const auto query = nnb::datasets::resolve_cloud(opt.query, nnb::datasets::Role::query, opt.data);
+  std::cerr << "nns_query: model " << model.name << ": " << model.points.cols() << " points (" << model.n_dropped
+            << " invalid dropped); query " << query.name << ": " << query.points.cols() << " points ("
+            << query.n_dropped << " invalid dropped)\n";
+
+  auto start = std::chrono::steady_clock::now();
+  index->build(model.points);
+  const double build_seconds = seconds_since(start);
+
+  nnb::Neighbours found;
+  std::vector<double> query_seconds;
+  for (int r = 0; r < opt.repeat; ++r) {
+    start = std::chrono::steady_clock::now();
+    switch (kind) {
+      case nnb::SearchKind::knn: index->knn(query.points, opt.k, found); break;
+      case nnb::SearchKind::radius: index->radius(query.points, opt.max_dist_m, found); break;
+      case nnb::SearchKind::ranged: index->ranged(query.points, opt.k, opt.max_dist_m, found); break;
+    }
+    query_seconds.push_back(seconds_since(start));
+  }
+  std::sort(query_seconds.begin(), query_seconds.end());
+  const double median_seconds = query_seconds[query_seconds.size() / 2];
+
+  const std::string csv = to_csv(found);
+  if (opt.out.empty() || opt.out == "-") {
+    std::cout << csv;
+  } else {
+    nnb::cli::write_file_atomically(opt.out, csv);
+  }
+  if (!opt.stats.empty()) {
+    const auto& info = index->info();
+    nlohmann::json stats = {
+        {"adapter", info.name},
+        {"library", info.library},
+        {"library_version", info.version},
+        {"strategy", nnb::to_string(info.strategy(kind))},
+        {"params", info.params},
+        {"search", opt.search},
+        {"k", opt.k},
+        {"max_dist_m", opt.max_dist_m},
+        {"model", model.name},
+        {"model_points", model.points.cols()},
+        {"query", query.name},
+        {"query_points", query.points.cols()},
+        {"build_seconds", build_seconds},
+        {"query_seconds", median_seconds},
+        {"repeat", opt.repeat},
+        {"found", found.queries_with_neighbours()},
+        {"neighbours", found.total()},
+        {"index_bytes", index->index_bytes()},
+        {"build_type", nnb::cli::build_type()},
+    };
+    nnb::cli::write_file_atomically(opt.stats, stats.dump(2) + "\n");
+  }
+  std::cerr << "nns_query: " << opt.adapter << " " << opt.search << ": " << found.queries_with_neighbours() << " of "
+            << found.n_queries() << " queries found a neighbour; build " << build_seconds << " s, query "
+            << median_seconds << " s (median of " << opt.repeat << ")\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  CLI::App app{"nns_query: answer a query set with one adapter; writes CSV query,neighbor,distance (metres)"};
+  app.add_flag("--list", opt.list, "Print the adapters built in and exit");
+  app.add_flag("--table1", opt.table1, "Print the paper's Table 1 from the adapters' declared data (Markdown)");
+  app.add_option("--model", opt.model, "Model cloud: a file, a shape (hollow_sphere, ...) or a real pair name");
+  app.add_option("--query", opt.query, "Query cloud: a file, a shape, or a real pair (its query scan at its pose)");
+  app.add_option("--adapter", opt.adapter, "Adapter name (see --list)")->capture_default_str();
+  app.add_option("--search", opt.search, "knn, radius or ranged")->capture_default_str();
+  app.add_option("--k", opt.k, "Neighbours per query (knn, ranged)")->capture_default_str();
+  app.add_option("--max-dist", opt.max_dist_m, "Maximal distance / radius in metres")->capture_default_str();
+  app.add_option("--param", opt.params, "Adapter parameter NAME=VALUE (repeatable), e.g. bucket_size=5");
+  app.add_option("--out", opt.out, "CSV output file (default: standard output)");
+  app.add_option("--repeat", opt.repeat, "Answer the query set N times; query_seconds is the median")
+      ->capture_default_str();
+  app.add_option("--stats", opt.stats, "Write JSON statistics to this file");
+  app.add_option("--data-dir", opt.data.data_dir, "Real scan directory (default: $NNB_DATA_DIR or ../shared/datasets/real)");
+  app.add_option("--points", opt.data.synthetic_points, "Points per synthetic set")->capture_default_str();
+  app.add_option("--seed", opt.data.seed, "Seed of the synthetic sets")->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  return nnb::cli::run_reporting_errors("nns_query", [&] { return run(opt); });
+}

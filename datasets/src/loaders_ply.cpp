@@ -1,0 +1,223 @@
+// PLY (ascii, binary little and big endian): header and the vertex element's x y z. PCL's loadPLYFile
+// turns the Stanford bunny's range_grid into an organized 512x400 cloud of NaNs (204,800 points), not
+// the file's 40,256 vertices, hence this small reader.
+#include "loaders_detail.hpp"
+
+#include <cstdint>
+#include <algorithm>
+#include <cstring>
+#include <utility>
+#include <sstream>
+
+namespace nnb::datasets::detail {
+namespace {
+
+enum class Encoding { ascii, binary_le, binary_be };
+
+struct Property {
+  std::string name;
+  int size = 0;           // bytes of a value (binary)
+  char kind = 'f';        // 'i' signed, 'u' unsigned, 'f' float
+  bool is_list = false;
+  int count_size = 0;     // list: bytes of the count
+  char count_kind = 'u';
+};
+
+struct Element {
+  std::string name;
+  std::size_t count = 0;
+  std::vector<Property> properties;
+};
+
+bool scalar_type(const std::string& t, int& size, char& kind) {
+  if (t == "char" || t == "int8") { size = 1; kind = 'i'; return true; }
+  if (t == "uchar" || t == "uint8") { size = 1; kind = 'u'; return true; }
+  if (t == "short" || t == "int16") { size = 2; kind = 'i'; return true; }
+  if (t == "ushort" || t == "uint16") { size = 2; kind = 'u'; return true; }
+  if (t == "int" || t == "int32") { size = 4; kind = 'i'; return true; }
+  if (t == "uint" || t == "uint32") { size = 4; kind = 'u'; return true; }
+  if (t == "float" || t == "float32") { size = 4; kind = 'f'; return true; }
+  if (t == "double" || t == "float64") { size = 8; kind = 'f'; return true; }
+  return false;
+}
+
+bool host_is_little() {
+  const std::uint16_t one = 1;
+  unsigned char b;
+  std::memcpy(&b, &one, 1);
+  return b == 1;
+}
+
+/// Decodes one binary value of the given size/kind; bounds are checked by the caller.
+double decode(const unsigned char* p, int size, char kind, bool swap) {
+  unsigned char b[8];
+  std::memcpy(b, p, size);
+  if (swap) {
+    for (int i = 0; i < size / 2; ++i) std::swap(b[i], b[size - 1 - i]);
+  }
+  switch (size) {
+    case 1: return kind == 'i' ? double(static_cast<std::int8_t>(b[0])) : double(b[0]);
+    case 2: { std::int16_t s; std::uint16_t u; std::memcpy(&s, b, 2); std::memcpy(&u, b, 2); return kind == 'i' ? s : u; }
+    case 4: {
+      if (kind == 'f') { float f; std::memcpy(&f, b, 4); return f; }
+      std::int32_t s; std::uint32_t u; std::memcpy(&s, b, 4); std::memcpy(&u, b, 4); return kind == 'i' ? s : u;
+    }
+    default: { double d; std::memcpy(&d, b, 8); return d; }
+  }
+}
+
+}  // namespace
+
+RawPoints read_ply(const std::string& path, const std::string& bytes) {
+  auto wrong = [&](const std::string& why) { return InputError("wrong PLY header in " + path + ": " + why); };
+  if (bytes.compare(0, 4, "ply\n") != 0 && bytes.compare(0, 5, "ply\r\n") != 0) throw wrong("does not start with 'ply'");
+
+  // Header.
+  std::size_t pos = 0;
+  const char* line = nullptr;
+  const char* end = nullptr;
+  next_line(bytes, pos, line, end);
+  Encoding encoding = Encoding::ascii;
+  bool have_format = false, have_end = false;
+  std::vector<Element> elements;
+  while (next_line(bytes, pos, line, end)) {
+    std::string text(line, end);
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    std::istringstream words(text);
+    std::string key;
+    words >> key;
+    if (key == "end_header") { have_end = true; break; }
+    if (key == "comment" || key == "obj_info" || key.empty()) continue;
+    if (key == "format") {
+      std::string enc;
+      words >> enc;
+      if (enc == "ascii") encoding = Encoding::ascii;
+      else if (enc == "binary_little_endian") encoding = Encoding::binary_le;
+      else if (enc == "binary_big_endian") encoding = Encoding::binary_be;
+      else throw wrong("unknown format '" + enc + "'");
+      have_format = true;
+    } else if (key == "element") {
+      Element e;
+      long long count = -1;
+      words >> e.name >> count;
+      if (!words || count < 0) throw wrong("bad line '" + text + "'");
+      e.count = static_cast<std::size_t>(count);
+      elements.push_back(e);
+    } else if (key == "property") {
+      if (elements.empty()) throw wrong("property before any element");
+      Property p;
+      std::string type;
+      words >> type;
+      if (type == "list") {
+        std::string count_type, item_type;
+        words >> count_type >> item_type >> p.name;
+        p.is_list = true;
+        if (!scalar_type(count_type, p.count_size, p.count_kind) || !scalar_type(item_type, p.size, p.kind)) {
+          throw wrong("bad list property '" + text + "'");
+        }
+      } else {
+        words >> p.name;
+        if (!scalar_type(type, p.size, p.kind)) throw wrong("unknown property type in '" + text + "'");
+      }
+      if (!words) throw wrong("bad property line '" + text + "'");
+      elements.back().properties.push_back(p);
+    } else {
+      throw wrong("unknown header line '" + text + "'");
+    }
+  }
+  if (!have_end) throw InputError("truncated PLY header in " + path + ": no end_header");
+  if (!have_format) throw wrong("no format line");
+
+  std::size_t vertex_element = elements.size();
+  for (std::size_t i = 0; i < elements.size(); ++i) {
+    if (elements[i].name == "vertex") { vertex_element = i; break; }
+  }
+  if (vertex_element == elements.size()) throw wrong("no vertex element");
+  const Element& vertex = elements[vertex_element];
+  int axis_of[3] = {-1, -1, -1};
+  for (std::size_t i = 0; i < vertex.properties.size(); ++i) {
+    const Property& p = vertex.properties[i];
+    for (int a = 0; a < 3; ++a) {
+      if (p.name == std::string(1, static_cast<char>('x' + a)) && !p.is_list) axis_of[a] = static_cast<int>(i);
+    }
+  }
+  if (axis_of[0] < 0 || axis_of[1] < 0 || axis_of[2] < 0) throw wrong("vertex has no x, y and z properties");
+
+  RawPoints raw;
+  if (vertex.count > bytes.size()) {  // every vertex takes at least one byte: a lying count is truncation
+    throw InputError("truncated PLY file " + path + ": " + std::to_string(vertex.count) + " vertices declared");
+  }
+  raw.xyz.resize(3 * vertex.count);
+
+  if (encoding == Encoding::ascii) {
+    // One line per element item; elements before the vertices are skipped line by line.
+    for (std::size_t e = 0; e <= vertex_element; ++e) {
+      const bool is_vertex = e == vertex_element;
+      for (std::size_t i = 0; i < elements[e].count; ++i) {
+        if (!next_line(bytes, pos, line, end)) {
+          throw InputError("truncated PLY file " + path + ": " + elements[e].name + " " + std::to_string(i) +
+                           " of " + std::to_string(elements[e].count) + " missing");
+        }
+        if (!is_vertex) continue;
+        const char* p = line;
+        for (std::size_t k = 0; k < vertex.properties.size(); ++k) {
+          const Property& prop = vertex.properties[k];
+          double value = 0;
+          std::size_t n_values = 1;
+          if (prop.is_list) {
+            if (!parse_number(p, end, value) || !(value >= 0 && value < 1e9)) n_values = static_cast<std::size_t>(-1);
+            else n_values = static_cast<std::size_t>(value);
+          }
+          bool ok = n_values != static_cast<std::size_t>(-1);
+          for (std::size_t v = 0; ok && v < n_values; ++v) ok = parse_number(p, end, value);
+          if (!ok) {
+            throw InputError("malformed number in " + path + " at vertex " + std::to_string(i) + " ('" +
+                             std::string(line, std::min<std::size_t>(end - line, 60)) + "')");
+          }
+          for (int a = 0; a < 3; ++a) {
+            if (axis_of[a] == static_cast<int>(k)) raw.xyz[3 * i + a] = value;
+          }
+        }
+      }
+    }
+    return raw;
+  }
+
+  const bool swap = (encoding == Encoding::binary_le) != host_is_little();
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  std::size_t at = pos;
+  auto need = [&](std::size_t n, const Element& e, std::size_t i) {
+    if (n > bytes.size() - at) {
+      throw InputError("truncated PLY file " + path + ": data ends in " + e.name + " " + std::to_string(i) +
+                       " of " + std::to_string(e.count));
+    }
+  };
+  for (std::size_t e = 0; e <= vertex_element; ++e) {
+    const Element& el = elements[e];
+    const bool is_vertex = e == vertex_element;
+    for (std::size_t i = 0; i < el.count; ++i) {
+      for (std::size_t k = 0; k < el.properties.size(); ++k) {
+        const Property& prop = el.properties[k];
+        std::size_t n_values = 1;
+        if (prop.is_list) {
+          need(prop.count_size, el, i);
+          const double n = decode(data + at, prop.count_size, prop.count_kind, swap);
+          at += prop.count_size;
+          if (!(n >= 0 && n < 4294967296.0)) throw InputError("malformed list count in " + path + " (" + el.name + ")");
+          n_values = static_cast<std::size_t>(n);
+        }
+        if (n_values > (bytes.size() - at) / static_cast<std::size_t>(prop.size)) need(bytes.size() - at + 1, el, i);
+        if (is_vertex && !prop.is_list) {
+          const double value = decode(data + at, prop.size, prop.kind, swap);
+          for (int a = 0; a < 3; ++a) {
+            if (axis_of[a] == static_cast<int>(k)) raw.xyz[3 * i + a] = value;
+          }
+        }
+        at += n_values * prop.size;
+      }
+    }
+  }
+  return raw;
+}
+
+}  // namespace nnb::datasets::detail

@@ -1,0 +1,44 @@
+#!/usr/bin/env python3
+"""Regenerates the paper's table and figures from results JSON: python3 plots/make_figures.py [FILES] [--out DIR]."""
+import argparse
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import fig_build  # noqa: E402
+import fig_icp  # noqa: E402
+import fig_sweep  # noqa: E402
+import results_io  # noqa: E402
+import style  # noqa: E402
+from table1 import write_table1  # noqa: E402
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("results", nargs="*", type=Path,
+                        help="results files (default: results/reference/*.json, else results/*.json)")
+    parser.add_argument("--out", type=Path, default=results_io.REPO_ROOT / "results" / "figures",
+                        help="output directory (default: results/figures)")
+    args = parser.parse_args(argv)
+    paths = args.results or results_io.default_inputs()
+    if not paths:
+        print("make_figures: no results files (results/reference/*.json or results/*.json): nothing to plot")
+        return 0
+    results = results_io.load(paths)
+    if not results.files:
+        print("make_figures: none of the given files could be read", file=sys.stderr)
+        return 1
+    style.setup()
+    write_table1(results, args.out)
+    fig_icp.fig2(results, args.out)
+    fig_sweep.fig3(results, args.out)
+    fig_build.fig4(results, args.out)
+    fig_icp.fig5(results, args.out)
+    fig_sweep.grid(results, args.out, best=False)
+    fig_sweep.grid(results, args.out, best=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,230 @@
+"""Reads results files (Google Benchmark JSON schema) into plain records for the figures and findings.
+
+Tolerant by design: unknown fields are ignored, missing ones are reported on stderr, nothing is invented.
+"""
+import json
+import math
+import sys
+from collections import namedtuple
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+SHAPES = ("hollow_cube", "filled_cube", "hollow_sphere", "filled_sphere")
+UNIT_SECONDS = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}
+
+# seconds is None for a skipped cell; max_dist_m is None for k-NN (it does not depend on the distance).
+SweepCell = namedtuple("SweepCell", "model query adapter search strategy max_dist_m k seconds skipped found agrees")
+Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points")
+IcpRun = namedtuple("IcpRun", "experiment pair adapter search bucket_size icp_seconds build_seconds nns_seconds "
+                              "iterations converged")
+
+
+_WARNED = set()
+
+
+def warn(message):
+    """One line on stderr, once per distinct message."""
+    if message in _WARNED:
+        return
+    _WARNED.add(message)
+    print(f"{Path(sys.argv[0]).name}: {message}", file=sys.stderr)
+
+
+def _number(value):
+    """The value as a finite float, or None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    return float(value) if math.isfinite(value) else None
+
+
+def record_seconds(rec, fields=("median_seconds", "median_s")):
+    """The record's time in seconds: the first of `fields` present, else real_time converted by time_unit."""
+    for field in (fields,) if isinstance(fields, str) else fields:
+        value = _number(rec.get(field))
+        if value is not None:
+            return value
+    real_time, unit = _number(rec.get("real_time")), rec.get("time_unit")
+    if real_time is None or unit not in UNIT_SECONDS:
+        return None
+    return real_time * UNIT_SECONDS[unit]
+
+
+def _skip_reason(rec):
+    if rec.get("skipped"):
+        return str(rec["skipped"])
+    if rec.get("error_occurred"):
+        return str(rec.get("error_message", "error"))
+    return None
+
+
+class Results:
+    """Everything read from a set of results files."""
+
+    def __init__(self):
+        self.files = []      # (path, context)
+        self.sweep = []      # SweepCell
+        self.builds = []     # Build
+        self.icp = []        # IcpRun
+        self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
+
+    def adapter_info(self, name):
+        return self.adapters.get(name, {})
+
+    def _note_adapter(self, rec):
+        name = rec.get("adapter")
+        if not name:
+            return
+        info = self.adapters.setdefault(name, {})
+        for key in ("library", "version", "structure"):
+            if rec.get(key) and not info.get(key):
+                info[key] = str(rec[key])
+        if rec.get("search") in ("knn", "radius", "ranged") and rec.get("strategy"):
+            info.setdefault(rec["search"], rec["strategy"])
+        if isinstance(rec.get("exact"), bool):
+            info.setdefault("exact", rec["exact"])
+
+
+def _name_parts(rec):
+    return str(rec.get("name", "")).split("/")
+
+
+def _read_sweep(results, rec):
+    parts = _name_parts(rec)
+    model = rec.get("model") or (parts[1] if len(parts) > 1 else None)
+    query = rec.get("query") or (parts[2] if len(parts) > 2 else None)
+    adapter = rec.get("adapter") or (parts[3] if len(parts) > 3 else None)
+    search = rec.get("search") or (parts[4] if len(parts) > 4 else None)
+    if not (model and query and adapter and search):
+        warn(f"sweep record {rec.get('name')!r} lacks model/query/adapter/search: ignored")
+        return
+    skipped = _skip_reason(rec)
+    seconds = None if skipped else record_seconds(rec)
+    if seconds is None and not skipped:
+        warn(f"{rec.get('name')}: no time (median_seconds or real_time+time_unit): ignored")
+        return
+    max_dist = _number(rec.get("max_dist"))
+    if max_dist is None and search != "knn":
+        warn(f"{rec.get('name')}: {search} cell without max_dist: ignored")
+        return
+    k = _number(rec.get("k"))
+    results.sweep.append(SweepCell(model, query, adapter, search, rec.get("strategy") or "?",
+                                   max_dist, k, seconds, skipped, _number(rec.get("found")),
+                                   rec.get("agrees") if isinstance(rec.get("agrees"), bool) else None))
+    results._note_adapter(rec)
+
+
+def _read_build(results, rec):
+    parts = _name_parts(rec)
+    model = rec.get("model") or (parts[1] if len(parts) > 1 else None)
+    adapter = rec.get("adapter") or (parts[2] if len(parts) > 2 else None)
+    if not (model and adapter) or _skip_reason(rec):
+        warn(f"build record {rec.get('name')!r} skipped or incomplete: ignored")
+        return
+    seconds = record_seconds(rec, "build_seconds")
+    if seconds is None:
+        warn(f"{rec.get('name')}: no build_seconds: ignored")
+        return
+    results.builds.append(Build(model, adapter, seconds, _number(rec.get("index_bytes")),
+                                _number(rec.get("n_points"))))
+    results._note_adapter(rec)
+
+
+def _read_icp(results, rec, experiment):
+    parts = _name_parts(rec)
+    pair = rec.get("pair") or (parts[1] if len(parts) > 1 else None)
+    adapter = rec.get("adapter") or (parts[2] if len(parts) > 2 else None)
+    icp_seconds = _number(rec.get("icp_seconds"))
+    if not (pair and adapter) or icp_seconds is None or _skip_reason(rec):
+        warn(f"icp record {rec.get('name')!r} lacks pair/adapter/icp_seconds or was skipped: ignored")
+        return
+    converged = rec.get("converged")
+    results.icp.append(IcpRun(rec.get("experiment") or experiment, pair, adapter, rec.get("search"),
+                              _number(rec.get("bucket_size")), icp_seconds, _number(rec.get("build_seconds")),
+                              _number(rec.get("nns_seconds")), _number(rec.get("iterations")),
+                              converged if isinstance(converged, bool) else None))
+    results._note_adapter(rec)
+
+
+def _kind(rec):
+    name = str(rec.get("name", ""))
+    for prefix in ("sweep", "build", "icp"):
+        if name.startswith(prefix + "/"):
+            return prefix
+    if "icp_seconds" in rec:
+        return "icp"
+    if "search" in rec and "adapter" in rec:
+        return "sweep"
+    if "build_seconds" in rec:
+        return "build"
+    return None
+
+
+def load(paths):
+    """Reads every results file; a file that cannot be read is reported and left out."""
+    results = Results()
+    for path in paths:
+        try:
+            doc = json.loads(Path(path).read_text())
+        except (OSError, ValueError) as err:
+            warn(f"{path}: cannot read results ({err}): ignored")
+            continue
+        if not isinstance(doc, dict) or not isinstance(doc.get("benchmarks"), list):
+            warn(f"{path}: not a results file (no 'benchmarks' list): ignored")
+            continue
+        context = doc.get("context") if isinstance(doc.get("context"), dict) else {}
+        results.files.append((str(path), context))
+        for name, info in (context.get("adapters") or {}).items():
+            if isinstance(info, dict):
+                results.adapters.setdefault(name, {}).update({k: v for k, v in info.items() if v is not None})
+        for rec in doc["benchmarks"]:
+            if not isinstance(rec, dict):
+                continue
+            if rec.get("run_type") == "aggregate" and rec.get("aggregate_name") != "median":
+                continue
+            kind = _kind(rec)
+            if kind == "sweep":
+                _read_sweep(results, rec)
+            elif kind == "build":
+                _read_build(results, rec)
+            elif kind == "icp":
+                _read_icp(results, rec, context.get("experiment"))
+    results.sweep = _one_k(_last_wins(results.sweep, lambda c: (c.model, c.query, c.adapter, c.search, c.max_dist_m, c.k)))
+    return results
+
+
+def _last_wins(items, key):
+    by_key = {}
+    for item in items:
+        by_key[key(item)] = item
+    if len(by_key) < len(items):
+        warn(f"{len(items) - len(by_key)} duplicate records: the last one read is used")
+    return list(by_key.values())
+
+
+def _one_k(cells):
+    """Figures and claims concern 1-NN (the ICP case); with several k, keep the smallest."""
+    ks = sorted({c.k for c in cells if c.k is not None})
+    if len(ks) <= 1:
+        return cells
+    warn(f"sweep has k = {ks}: only k = {ks[0]:g} is used")
+    return [c for c in cells if c.k is None or c.k == ks[0]]
+
+
+def default_inputs():
+    """Reference results if there are any, else every results/*.json."""
+    for pattern in ("results/reference/*.json", "results/*.json"):
+        found = sorted(REPO_ROOT.glob(pattern))
+        if found:
+            return found
+    return []
+
+
+def sweep_series(results, model, query):
+    """{(adapter, search): sorted cells} for one model/query combination."""
+    series = {}
+    for cell in results.sweep:
+        if cell.model == model and cell.query == query:
+            series.setdefault((cell.adapter, cell.search), []).append(cell)
+    for cells in series.values():
+        cells.sort(key=lambda c: -1.0 if c.max_dist_m is None else c.max_dist_m)
+    return series

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The README's test command: install the dependencies, build the release and the sanitizer presets,
+# and run the whole ctest suite under both.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+./scripts/install_deps.sh
+jobs=$(nproc 2>/dev/null || echo 2)
+for preset in release sanitize; do
+  echo "=== ${preset}: configure, build, test ==="
+  cmake --preset "${preset}"
+  cmake --build --preset "${preset}" -j "${jobs}"
+  ctest --preset "${preset}" -j "${jobs}"
+done

@@ -1,0 +1,48 @@
+"""Reading results: units honoured, median preferred, skipped cells kept as skipped, bad records ignored."""
+import tempfile
+import unittest
+from pathlib import Path
+
+import fixtures
+import results_io
+
+
+def cell(name, **fields):
+    parts = name.split("/")
+    rec = {"name": name, "model": parts[1], "query": parts[2], "adapter": parts[3], "search": parts[4],
+           "strategy": "native"}
+    rec.update(fields)
+    return rec
+
+
+class ResultsIoTest(unittest.TestCase):
+    def load(self, records):
+        with tempfile.TemporaryDirectory() as tmp:
+            return results_io.load([fixtures.write(Path(tmp) / "r.json", "paper", records)])
+
+    def test_time_unit_and_median(self):
+        r = self.load([cell("sweep/a/b/x/ranged/max_dist:0.10", max_dist=0.1, real_time=250.0, time_unit="ms"),
+                       cell("sweep/a/b/x/ranged/max_dist:0.20", max_dist=0.2, real_time=9.0, time_unit="s",
+                            median_seconds=0.5),
+                       cell("sweep/a/b/x/knn", real_time=3.0, time_unit="s")])
+        got = {c.max_dist_m: c.seconds for c in r.sweep}
+        self.assertEqual(got, {0.1: 0.25, 0.2: 0.5, None: 3.0})
+
+    def test_skipped_and_incomplete_records(self):
+        r = self.load([cell("sweep/a/b/x/radius/max_dist:0.90", max_dist=0.9, skipped="over budget",
+                            real_time=0, time_unit="s"),
+                       cell("sweep/a/b/x/radius/max_dist:0.10", real_time=1.0, time_unit="s"),  # no max_dist
+                       cell("sweep/a/b/x/radius/max_dist:0.20", max_dist=0.2, real_time=1.0, time_unit="parsec"),
+                       {"name": "something/else"}])
+        self.assertEqual(len(r.sweep), 1)
+        self.assertIsNone(r.sweep[0].seconds)
+        self.assertEqual(r.sweep[0].skipped, "over budget")
+
+    def test_adapter_metadata_from_context(self):
+        r = self.load(fixtures.build_records())
+        self.assertEqual(r.adapter_info("ann_kdtree")["library"], "ANN")
+        self.assertEqual(len(r.builds), 4 * len(fixtures.ADAPTERS))
+
+
+if __name__ == "__main__":
+    unittest.main()

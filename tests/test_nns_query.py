@@ -1,0 +1,161 @@
+"""nns_query end to end: the CSV and stats it writes, and one clear line with exit code 2 on bad input.
+
+Run as: python3 test_nns_query.py NNS_QUERY_BINARY [unittest args]
+"""
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+
+BINARY = None
+
+
+def run(*args, env=None):
+    return subprocess.run([BINARY, *args], capture_output=True, text=True, timeout=300, env=env)
+
+
+class Answers(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.mkdtemp(prefix="nns_query_test_")
+
+    def tearDown(self):
+        shutil.rmtree(self.dir)
+
+    def test_list_names_brute_force(self):
+        result = run("--list")
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertIn("brute_force", result.stdout)
+
+    def test_table1_is_markdown_with_every_adapter(self):
+        names = [line.split("\t")[0] for line in run("--list").stdout.splitlines()]
+        table = run("--table1").stdout
+        self.assertTrue(table.startswith("| adapter |"))
+        for name in names:
+            self.assertIn(f"| {name} |", table)
+
+    def test_csv_is_sorted_and_within_the_limit_and_stats_agree(self):
+        out, stats = os.path.join(self.dir, "n.csv"), os.path.join(self.dir, "s.json")
+        result = run("--adapter", "brute_force", "--model", "hollow_sphere", "--query", "hollow_cube",
+                     "--points", "500", "--search", "ranged", "--k", "3", "--max-dist", "0.4",
+                     "--repeat", "3", "--out", out, "--stats", stats)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with open(out) as f:
+            rows = list(csv.reader(f))
+        self.assertEqual(rows[0], ["query", "neighbor", "distance"])
+        keys = [(int(q), float(d)) for q, _, d in rows[1:]]
+        self.assertEqual(keys, sorted(keys))
+        self.assertTrue(all(0.0 <= d <= 0.4 for _, d in keys))
+        per_query = {}
+        for q, _ in keys:
+            per_query[q] = per_query.get(q, 0) + 1
+        self.assertTrue(all(1 <= n <= 3 for n in per_query.values()))
+        with open(stats) as f:
+            s = json.load(f)
+        for field in ("adapter", "library_version", "build_seconds", "query_seconds", "found", "index_bytes"):
+            self.assertIn(field, s)
+        self.assertEqual(s["found"], len(per_query))
+        self.assertEqual(s["adapter"], "brute_force")
+
+    def test_every_adapter_gives_the_same_csv_distances(self):
+        names = [line.split("\t")[0] for line in run("--list").stdout.splitlines()
+                 if "APPROXIMATE" not in line]
+        answers = {}
+        for name in names:
+            out = os.path.join(self.dir, name + ".csv")
+            result = run("--adapter", name, "--model", "filled_cube", "--query", "hollow_sphere", "--points",
+                         "400", "--search", "ranged", "--max-dist", "0.15", "--out", out)
+            self.assertEqual(result.returncode, 0, name + ": " + result.stderr)
+            with open(out) as f:
+                answers[name] = [(r[0], round(float(r[2]), 9)) for r in list(csv.reader(f))[1:]]
+        for name, answer in answers.items():
+            self.assertEqual(answer, answers["brute_force"], name)
+
+
+class BadInput(unittest.TestCase):
+    """Each: exit code 2, one line on stderr naming the problem, no output file left behind."""
+
+    def setUp(self):
+        self.dir = tempfile.mkdtemp(prefix="nns_query_bad_")
+        self.out = os.path.join(self.dir, "out.csv")
+
+    def tearDown(self):
+        shutil.rmtree(self.dir)
+
+    def expect_refused(self, args, words, env=None):
+        result = run(*args, "--out", self.out, env=env)
+        self.assertEqual(result.returncode, 2, result.stderr)
+        lines = [l for l in result.stderr.splitlines() if l.strip()]
+        errors = [l for l in lines if "error" in l.lower()]
+        self.assertEqual(len(errors), 1, result.stderr)
+        for word in words:
+            self.assertIn(word, errors[0])
+        self.assertFalse(os.path.exists(self.out))
+        self.assertEqual([f for f in os.listdir(self.dir) if f != "bad.xyz" and f != "bad.bin"], [])
+
+    def test_missing_file(self):
+        self.expect_refused(["--model", "/nonexistent/cloud.pcd", "--query", "hollow_cube"], ["cloud.pcd"])
+
+    def test_unknown_adapter(self):
+        self.expect_refused(["--adapter", "no_such", "--model", "hollow_cube", "--query", "hollow_cube"],
+                            ["no_such"])
+
+    def test_unknown_data_set(self):
+        self.expect_refused(["--model", "hollow_torus", "--query", "hollow_cube"], ["hollow_torus"])
+
+    def test_negative_distance(self):
+        self.expect_refused(["--model", "hollow_cube", "--query", "hollow_cube", "--points", "100",
+                             "--max-dist", "-0.5"], ["max_dist"])
+
+    def test_k_zero(self):
+        self.expect_refused(["--model", "hollow_cube", "--query", "hollow_cube", "--points", "100", "--k", "0"],
+                            ["k"])
+
+    def test_unknown_search_kind(self):
+        self.expect_refused(["--model", "hollow_cube", "--query", "hollow_cube", "--search", "nearest"],
+                            ["nearest"])
+
+    def test_bad_adapter_parameter(self):
+        self.expect_refused(["--model", "hollow_cube", "--query", "hollow_cube", "--param", "nonsense=3"],
+                            ["nonsense"])
+
+    def test_malformed_and_truncated_files(self):
+        bad_xyz = os.path.join(self.dir, "bad.xyz")
+        with open(bad_xyz, "w") as f:
+            f.write("0 0 1\n1 2 x\n")
+        self.expect_refused(["--model", bad_xyz, "--query", "hollow_cube"], ["bad.xyz"])
+        bad_bin = os.path.join(self.dir, "bad.bin")
+        with open(bad_bin, "wb") as f:
+            f.write(b"\0" * 13)
+        self.expect_refused(["--model", bad_bin, "--query", "hollow_cube"], ["bad.bin"])
+
+    def test_empty_cloud_after_dropping_invalid_points(self):
+        nan_xyz = os.path.join(self.dir, "bad.xyz")
+        with open(nan_xyz, "w") as f:
+            f.write("nan 0 0\n0 inf 0\n0 0 0\n")
+        self.expect_refused(["--model", nan_xyz, "--query", "hollow_cube"], ["bad.xyz"])
+
+    def test_checksum_mismatch(self):
+        real = os.environ.get("NNB_DATA_DIR_FOR_TESTS")
+        if not real or not os.path.isdir(os.path.join(real, "bunny-stanford")):
+            self.fail("the shared real data is needed for this test: set NNB_DATA_DIR_FOR_TESTS")
+        copy = os.path.join(self.dir, "data")
+        shutil.copytree(os.path.join(real, "bunny-stanford"), os.path.join(copy, "bunny-stanford"))
+        target = os.path.join(copy, "bunny-stanford", "bun000.ply")
+        os.chmod(target, 0o644)
+        with open(target, "r+b") as f:
+            f.seek(-3, os.SEEK_END)
+            f.write(b"9")
+        env = dict(os.environ, NNB_DATA_DIR=copy)
+        result = run("--model", "bunny-stanford", "--query", "hollow_cube", "--out", self.out, env=env)
+        self.assertEqual(result.returncode, 2, result.stderr)
+        self.assertIn("sha256", result.stderr.lower())
+        self.assertFalse(os.path.exists(self.out))
+
+
+if __name__ == "__main__":
+    BINARY = os.path.abspath(sys.argv.pop(1))
+    unittest.main()
