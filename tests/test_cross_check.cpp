@@ -204,8 +204,9 @@ TEST_P(EdgeCase, EmptyModelIsRefused) {
 }
 
 TEST_P(EdgeCase, EmptyQuerySetGivesEmptyResult) {
+  const Cloud model = make_shape(Shape::filled_cube, 100, 1);  // the index may reference it: keep it alive
   auto index = nnb::make_adapter(GetParam());
-  index->build(make_shape(Shape::filled_cube, 100, 1));
+  index->build(model);
   Neighbours got;
   index->ranged(Cloud(3, 0), 1, 0.5, got);
   EXPECT_EQ(got.n_queries(), 0u);
@@ -221,7 +222,8 @@ TEST_P(EdgeCase, DeclaresItselfCompletely) {
   EXPECT_TRUE(info.scalar == "float" || info.scalar == "double") << info.scalar;
   EXPECT_TRUE(info.ranged == nnb::Strategy::native || info.ranged == nnb::Strategy::via_knn ||
               info.ranged == nnb::Strategy::via_radius);
-  index->build(make_shape(Shape::filled_cube, 1000, 1));
+  const Cloud model = make_shape(Shape::filled_cube, 1000, 1);
+  index->build(model);
   if (GetParam() != "brute_force") {
     EXPECT_GT(index->index_bytes(), 0u);
   }

@@ -104,6 +104,7 @@ std::string table_cell(Strategy strategy) {
     case Strategy::via_knn: return "via k-NN";
     case Strategy::via_radius: return "via radius";
     case Strategy::via_box: return "via box + filter";
+    case Strategy::unsupported: return "no";
   }
   return "?";
 }

@@ -2,6 +2,7 @@
 #include "nnb/datasets/catalog.hpp"
 
 #include "nnb/datasets/checksum.hpp"
+#include "nnb/datasets/city_scan.hpp"
 #include "nnb/datasets/loaders.hpp"
 #include "nnb/datasets/poses.hpp"
 #include "nnb/datasets/synthetic.hpp"
@@ -28,6 +29,34 @@ std::string data_dir_of(const DataOptions& options) {
   return options.data_dir.empty() ? default_data_dir() : options.data_dir;
 }
 
+// A simulated pair (city_scan.hpp) looks like a manifest pair without files, so every caller of
+// find_pair / load_pair_scan / load_pair_pose takes it unchanged.
+RealPair simulated_pair(const CityPairPreset& preset) {
+  RealPair pair;
+  pair.name = preset.name;
+  pair.kind = "simulated";
+  pair.units = "m";
+  pair.notes = "simulated terrestrial scans of a synthetic city, angular step " + std::to_string(preset.angular_step_deg) +
+               " deg (datasets/include/nnb/datasets/city_scan.hpp)";
+  return pair;
+}
+
+NamedCloud simulated_scan(const RealPair& pair, Role role, const DataOptions& options) {
+  const CityPairPreset preset = *find_city_pair_preset(pair.name);
+  const bool scan_b = role == Role::query;
+  CityScan scan = scan_city_pair(preset, scan_b, options.seed);
+  NamedCloud cloud;
+  cloud.name = pair.name;
+  cloud.kind = "simulated_pair";
+  cloud.source = std::string("scan_city_pair(") + pair.name + ", scan " + (scan_b ? "B" : "A") + ", seed " +
+                 std::to_string(options.seed) + ")";
+  cloud.seed = options.seed;
+  cloud.points = std::move(scan.points);
+  cloud.n_read = scan.n_rays;
+  cloud.n_dropped = scan.n_dropped;
+  return cloud;
+}
+
 NamedCloud from_loaded(LoadedPoints loaded) {
   NamedCloud cloud;
   cloud.points = std::move(loaded.points);
@@ -46,10 +75,12 @@ std::string default_data_dir() {
 std::vector<std::string> dataset_names() {
   std::vector<std::string> names = shape_names();
   for (const auto& pair : real_pairs()) names.push_back(pair.name);
+  for (const auto& preset : city_pair_presets()) names.push_back(preset.name);
   return names;
 }
 
 std::optional<RealPair> find_pair(const std::string& name) {
+  if (const auto preset = find_city_pair_preset(name)) return simulated_pair(*preset);
   for (auto& pair : real_pairs()) {
     if (pair.name == name) return pair;
   }
@@ -75,6 +106,10 @@ void verify_sha256(const std::string& path, const std::string& expected_sha256) 
 }
 
 std::optional<Eigen::Matrix4d> load_pair_pose(const RealPair& pair, PoseKind kind, const DataOptions& options) {
+  if (pair.kind == "simulated") {
+    if (kind == PoseKind::estimate) return std::nullopt;
+    return kind == PoseKind::reference ? city_pair_poses().reference : city_pair_poses().initial;
+  }
   const std::optional<ManifestPose>& entry =
       kind == PoseKind::reference ? pair.reference : kind == PoseKind::initial ? pair.initial : pair.estimate;
   if (!entry) {
@@ -87,6 +122,7 @@ std::optional<Eigen::Matrix4d> load_pair_pose(const RealPair& pair, PoseKind kin
 }
 
 NamedCloud load_pair_scan(const RealPair& pair, Role role, const DataOptions& options) {
+  if (pair.kind == "simulated") return simulated_scan(pair, role, options);
   const ManifestScan& scan = role == Role::model ? pair.model : pair.query;
   const std::string path = pair_file_path(pair, scan.file, options);
   if (!fs::exists(path)) throw InputError("missing file: " + path);

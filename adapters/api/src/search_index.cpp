@@ -23,6 +23,7 @@ const char* to_string(Strategy strategy) {
     case Strategy::via_knn: return "via_knn";
     case Strategy::via_radius: return "via_radius";
     case Strategy::via_box: return "via_box";
+    case Strategy::unsupported: return "unsupported";
   }
   return "?";
 }
@@ -79,19 +80,28 @@ void SearchIndex::check_queries(const Cloud& queries) const {
   }
 }
 
+void SearchIndex::check_supported(SearchKind kind) const {
+  if (info_.strategy(kind) == Strategy::unsupported) {
+    throw InputError(info_.name + " does not answer " + to_string(kind) + " search");
+  }
+}
+
 void SearchIndex::knn(const Cloud& queries, int k, Neighbours& out) const {
+  check_supported(SearchKind::knn);
   check_k(info_.name, k);
   check_queries(queries);
   do_knn(queries, k, out);
 }
 
 void SearchIndex::radius(const Cloud& queries, double radius_m, Neighbours& out) const {
+  check_supported(SearchKind::radius);
   check_distance(info_.name, "radius", radius_m);
   check_queries(queries);
   do_radius(queries, radius_m, out);
 }
 
 void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const {
+  check_supported(SearchKind::ranged);
   check_k(info_.name, k);
   check_distance(info_.name, "max_dist", max_dist_m);
   check_queries(queries);

@@ -22,6 +22,7 @@ enum class Strategy {
   via_knn,     ///< k-NN search, then drop what lies beyond the limit (ranged)
   via_radius,  ///< radius search, then keep the k nearest (ranged)
   via_box,     ///< box intersection, then an exact distance filter (radius on R-trees)
+  unsupported, ///< not answered at all (only approximate adapters may say so); calls throw InputError
 };
 
 const char* to_string(SearchKind kind);
@@ -87,6 +88,7 @@ class SearchIndex {
 
  private:
   void check_queries(const Cloud& queries) const;
+  void check_supported(SearchKind kind) const;
   AdapterInfo info_;
   std::size_t model_size_ = 0;
 };

@@ -26,23 +26,24 @@ struct DataOptions {
 /// A cloud ready to search, with where it came from.
 struct NamedCloud {
   std::string name;         ///< the spec it was resolved from (shape, pair or path)
-  std::string kind;         ///< "synthetic", "real_pair" or "file"
+  std::string kind;         ///< "synthetic", "real_pair", "simulated_pair" or "file"
   std::string source;       ///< file path(s) read, or the generator and seed
   std::string sha256;       ///< of the file read (empty for synthetic sets)
-  std::uint64_t seed = 0;   ///< synthetic sets only
+  std::uint64_t seed = 0;   ///< synthetic sets and simulated pairs only
   Cloud points;             ///< metres, invalid points dropped
   std::size_t n_read = 0;   ///< points in the source before dropping
-  std::size_t n_dropped = 0;///< non-finite or (0,0,0) placeholder points dropped
+  std::size_t n_dropped = 0;///< non-finite or (0,0,0) placeholder points dropped (simulated: rays without return)
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  ///< applied to the points (query of a real pair)
 };
 
 /// The data directory: NNB_DATA_DIR if set, else the build's default (../shared/datasets/real).
 std::string default_data_dir();
-/// Names of the synthetic shapes and real pairs, for help texts and errors.
+/// Names of the synthetic shapes, real pairs and simulated pairs, for help texts and errors.
 std::vector<std::string> dataset_names();
 
-/// Resolves a shape name, a real pair name (as model: the pair's model scan; as query: the pair's query
-/// scan moved by the pair's reference pose, or its initial pose when there is none) or a file path.
+/// Resolves a shape name, a pair name (as model: the pair's model scan; as query: the pair's query scan
+/// moved by the pair's reference pose, or its initial pose when there is none) or a file path. Pairs are
+/// the manifest's real pairs and the simulated city-tls-* pairs (city_scan.hpp, generated with options.seed).
 /// Throws InputError with one line for an unknown name, a missing, malformed or mismatching file, or
 /// a cloud left empty after dropping invalid points.
 NamedCloud resolve_cloud(const std::string& spec, Role role, const DataOptions& options);
@@ -50,7 +51,7 @@ NamedCloud resolve_cloud(const std::string& spec, Role role, const DataOptions& 
 /// Which pose of a real pair: ground truth, initial guess, or a non-ground-truth estimate.
 enum class PoseKind { reference, initial, estimate };
 
-/// The real pair of that name from the manifest, or nothing.
+/// The pair of that name (simulated city-tls-*, else from the manifest), or nothing.
 std::optional<RealPair> find_pair(const std::string& name);
 /// The real pair of that name; InputError listing the known names if there is none.
 RealPair require_pair(const std::string& name);

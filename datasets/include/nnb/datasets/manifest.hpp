@@ -25,6 +25,7 @@ struct ManifestPose {
 /// A real pair: the model (target, fixed) and the query (source, moved) scan.
 struct RealPair {
   std::string name;
+  std::string kind = "files";       ///< "files" (this manifest) or "simulated" (city_scan.hpp: no files, no folder)
   std::string folder;               ///< relative to the data directory
   ManifestScan model;
   ManifestScan query;

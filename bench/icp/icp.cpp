@@ -1,0 +1,202 @@
+#include "icp.hpp"
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace nnb::icp {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string str(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+Cloud transformed(const Cloud& points, const Eigen::Matrix4d& pose) {
+  Cloud out = pose.topLeftCorner<3, 3>() * points;
+  out.colwise() += pose.topRightCorner<3, 1>();
+  return out;
+}
+
+// Nearest rotation to m in the Frobenius norm (polar decomposition through the SVD).
+Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& m) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return svd.matrixU() * d * svd.matrixV().transpose();
+}
+
+}  // namespace
+
+double DistanceSchedule::at(int iteration) const {
+  if (factor >= 1.0) return start_m;
+  return std::max(start_m * std::pow(factor, iteration), floor_m);
+}
+
+bool DistanceSchedule::settled(int iteration) const {
+  return factor >= 1.0 || start_m * std::pow(factor, iteration) <= floor_m;
+}
+
+Eigen::Matrix4d checked_rigid(const Eigen::Matrix4d& m, const std::string& what) {
+  if (!m.allFinite()) throw InputError(what + " has a non-finite entry");
+  if (m.row(3) != Eigen::RowVector4d(0, 0, 0, 1)) throw InputError(what + ": the last row must be 0 0 0 1");
+  const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+  const double off = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (off > 1e-4 || r.determinant() <= 0.0) {
+    throw InputError(what + " is not rigid: |R^T R - I| = " + str(off) + ", det(R) = " + str(r.determinant()) +
+                     " (need a rotation and a translation, no scale, shear or mirror)");
+  }
+  Eigen::Matrix4d out = m;
+  out.topLeftCorner<3, 3>() = nearest_rotation(r);
+  return out;
+}
+
+void validate(const Options& options) {
+  const auto& s = options.max_dist;
+  if (!std::isfinite(s.start_m) || s.start_m <= 0.0) {
+    throw InputError("ICP: the maximal distance must be a finite distance > 0 m (got " + str(s.start_m) + ")");
+  }
+  if (!(s.factor > 0.0 && s.factor <= 1.0)) {
+    throw InputError("ICP: the maximal distance factor must lie in (0, 1] (got " + str(s.factor) + ")");
+  }
+  if (!std::isfinite(s.floor_m) || s.floor_m < 0.0 || s.floor_m > s.start_m) {
+    throw InputError("ICP: the final maximal distance must lie in [0, start] m (got " + str(s.floor_m) + ")");
+  }
+  if (s.factor < 1.0 && s.floor_m <= 0.0) {
+    throw InputError("ICP: a shrinking maximal distance needs a final value > 0 m");
+  }
+  if (options.max_iterations < 1) {
+    throw InputError("ICP: the iteration limit must be at least 1 (got " + std::to_string(options.max_iterations) + ")");
+  }
+  if (!(options.min_translation_step_m >= 0.0) || !(options.min_rotation_step_rad >= 0.0)) {
+    throw InputError("ICP: convergence thresholds must be >= 0");
+  }
+  if (options.min_correspondences < 3) throw InputError("ICP: at least 3 correspondences are needed per iteration");
+  checked_rigid(options.initial_pose, "ICP: the initial pose");
+}
+
+bool estimate_rigid_transform(const Cloud& source, const Cloud& target, Eigen::Matrix4d& out) {
+  const Eigen::Index n = source.cols();
+  if (n < 3 || target.cols() != n) return false;
+  const Eigen::Vector3d source_mean = source.rowwise().mean();
+  const Eigen::Vector3d target_mean = target.rowwise().mean();
+  const Eigen::Matrix3d cross = (source.colwise() - source_mean) * (target.colwise() - target_mean).transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Vector3d sv = svd.singularValues();
+  // Collinear (or coincident) pairs leave a rotation about their line free: no unique answer.
+  if (!sv.allFinite() || !(sv(0) > 0.0) || sv(1) <= 1e-12 * sv(0)) return false;
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  // A reflection would fit better only for planar or bad pairs; force a proper rotation (Umeyama).
+  d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  const Eigen::Matrix3d rotation = svd.matrixV() * d * svd.matrixU().transpose();
+  Eigen::Matrix4d result = Eigen::Matrix4d::Identity();
+  result.topLeftCorner<3, 3>() = rotation;
+  result.topRightCorner<3, 1>() = target_mean - rotation * source_mean;
+  if (!result.allFinite()) return false;
+  out = result;
+  return true;
+}
+
+double rotation_angle_rad(const Eigen::Matrix4d& transform) {
+  // atan2 of sine and cosine: acos of the trace alone loses half the digits near 0 (2e-8 rad floor).
+  const Eigen::Matrix3d r = transform.topLeftCorner<3, 3>();
+  const Eigen::Vector3d axis_sin(r(2, 1) - r(1, 2), r(0, 2) - r(2, 0), r(1, 0) - r(0, 1));
+  return std::atan2(0.5 * axis_sin.norm(), 0.5 * (r.trace() - 1.0));
+}
+
+Result register_clouds(SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
+  validate(options);
+  const auto start = Clock::now();
+  index.build(model);
+  const double build_seconds = seconds_since(start);
+  Result result = register_prebuilt(index, model, query, options);
+  result.build_seconds = build_seconds;
+  return result;
+}
+
+Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
+  validate(options);
+  if (index.model_size() != static_cast<std::size_t>(model.cols())) {
+    throw InputError("ICP: the index was not built over this model cloud");
+  }
+  if (query.cols() < 3) throw InputError("ICP: the query cloud needs at least 3 points");
+  if (const auto bad = first_non_finite(query); bad >= 0) {
+    throw InputError("ICP: query point " + std::to_string(bad) + " has a non-finite coordinate");
+  }
+
+  Result result;
+  result.pose = checked_rigid(options.initial_pose, "ICP: the initial pose");
+  Neighbours pairs;
+  Cloud source;
+  Cloud target;
+  for (int i = 0; i < options.max_iterations; ++i) {
+    Iteration it;
+    it.max_dist_m = options.max_dist.at(i);
+
+    auto t0 = Clock::now();
+    const Cloud moved = transformed(query, result.pose);
+    result.estimate_seconds += seconds_since(t0);
+
+    t0 = Clock::now();
+    index.ranged(moved, 1, it.max_dist_m, pairs);
+    result.nns_seconds += seconds_since(t0);
+
+    t0 = Clock::now();
+    it.correspondences = pairs.queries_with_neighbours();
+    if (it.correspondences < options.min_correspondences) {
+      result.failure = "too few correspondences (" + std::to_string(it.correspondences) + " within " +
+                       str(it.max_dist_m) + " m) at iteration " + std::to_string(i + 1);
+      result.estimate_seconds += seconds_since(t0);
+      break;
+    }
+    source.resize(3, static_cast<Eigen::Index>(it.correspondences));
+    target.resize(3, static_cast<Eigen::Index>(it.correspondences));
+    double sum_sq_m2 = 0.0;
+    Eigen::Index n = 0;
+    for (std::size_t q = 0; q < pairs.n_queries(); ++q) {
+      if (pairs.count(q) == 0) continue;
+      const std::size_t at = pairs.offsets[q];
+      source.col(n) = query.col(static_cast<Eigen::Index>(q));
+      target.col(n) = model.col(static_cast<Eigen::Index>(pairs.indices[at]));
+      sum_sq_m2 += pairs.sq_dists[at];
+      ++n;
+    }
+    it.rms_m = std::sqrt(sum_sq_m2 / static_cast<double>(n));
+
+    Eigen::Matrix4d next;
+    if (!estimate_rigid_transform(source, target, next)) {
+      result.failure = "degenerate correspondences (collinear or coincident) at iteration " + std::to_string(i + 1);
+      result.estimate_seconds += seconds_since(t0);
+      break;
+    }
+    const Eigen::Matrix4d step = next * result.pose.inverse();
+    it.translation_step_m = step.topRightCorner<3, 1>().norm();
+    it.rotation_step_rad = rotation_angle_rad(step);
+    const Cloud residual = transformed(source, next) - target;
+    it.rms_after_m = std::sqrt(residual.colwise().squaredNorm().sum() / static_cast<double>(n));
+    result.pose = next;
+    result.estimate_seconds += seconds_since(t0);
+
+    result.per_iteration.push_back(it);
+    result.iterations = i + 1;
+    if (it.translation_step_m < options.min_translation_step_m && it.rotation_step_rad < options.min_rotation_step_rad &&
+        options.max_dist.settled(i)) {
+      result.converged = true;
+      break;
+    }
+  }
+  return result;
+}
+
+}  // namespace nnb::icp

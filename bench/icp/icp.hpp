@@ -1,0 +1,85 @@
+#pragma once
+// Point-to-point ICP (Besl and McKay 1992) on any SearchIndex: each iteration pairs every query point
+// with its nearest model point within the current maximal distance (ranged search, k = 1, native or
+// emulated as the adapter declares), then solves for the rigid transform in closed form (SVD of the
+// cross-covariance, Arun et al. 1987 / Umeyama 1991).
+#include "nnb/cloud.hpp"
+#include "nnb/search_index.hpp"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace nnb::icp {
+
+/// Maximal correspondence distance per iteration: max(start_m * factor^i, floor_m); factor 1 = fixed.
+struct DistanceSchedule {
+  double start_m = 0.5;
+  double factor = 1.0;   ///< in (0, 1]
+  double floor_m = 0.0;  ///< the schedule never goes below this (ignored when factor == 1)
+
+  /// The maximal distance in metres for iteration i (0-based).
+  double at(int iteration) const;
+  /// True once the schedule has reached its final value at iteration i.
+  bool settled(int iteration) const;
+};
+
+struct Options {
+  Eigen::Matrix4d initial_pose = Eigen::Matrix4d::Identity();  ///< maps query points into the model frame
+  DistanceSchedule max_dist;
+  int max_iterations = 50;
+  /// Converged when one update moves the pose by less than both thresholds (and the schedule settled).
+  double min_translation_step_m = 1e-6;
+  double min_rotation_step_rad = 1e-6;
+  std::size_t min_correspondences = 3;  ///< fewer pairs than this ends the run as a failure
+};
+
+struct Iteration {
+  double max_dist_m = 0.0;            ///< the limit the search used
+  std::size_t correspondences = 0;    ///< query points that found a model point within the limit
+  double rms_m = 0.0;                 ///< RMS pair distance at the pose searched from
+  double rms_after_m = 0.0;           ///< RMS of the same pairs after this iteration's update
+  double translation_step_m = 0.0;    ///< how far the update moved the pose
+  double rotation_step_rad = 0.0;
+};
+
+struct Result {
+  Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  ///< final estimate, query -> model frame; always finite
+  int iterations = 0;                  ///< updates computed
+  bool converged = false;              ///< the step thresholds were met before the iteration limit
+  std::string failure;                 ///< empty unless the run stopped early (too few pairs, degenerate)
+  std::vector<Iteration> per_iteration;
+  double build_seconds = 0.0;          ///< index construction
+  double nns_seconds = 0.0;            ///< nearest-neighbour searches
+  double estimate_seconds = 0.0;       ///< moving the query points and solving for the transform
+  /// RMS pair distance in metres after the last update (0 when no iteration ran).
+  double final_rms_m() const { return per_iteration.empty() ? 0.0 : per_iteration.back().rms_after_m; }
+  /// Correspondences of the last iteration.
+  std::size_t final_correspondences() const {
+    return per_iteration.empty() ? 0 : per_iteration.back().correspondences;
+  }
+};
+
+/// Throws InputError unless options are usable (positive distances, factor in (0,1], a rigid initial pose).
+void validate(const Options& options);
+
+/// Throws InputError (naming `what`) unless m is finite, has last row 0 0 0 1 and a rotation block with
+/// |R^T R - I| <= 1e-4 and det(R) > 0; returns m with its rotation projected exactly onto SO(3).
+Eigen::Matrix4d checked_rigid(const Eigen::Matrix4d& m, const std::string& what);
+
+/// The rigid transform minimising sum |T * source_i - target_i|^2 over paired columns (least squares,
+/// no scale); returns false (and leaves out untouched) when fewer than 3 pairs or the pairs are degenerate.
+bool estimate_rigid_transform(const Cloud& source, const Cloud& target, Eigen::Matrix4d& out);
+
+/// Rotation angle of a rigid transform's rotation block, in radians.
+double rotation_angle_rad(const Eigen::Matrix4d& transform);
+
+/// Builds index over model (timed) and registers query onto it; the query and model must stay alive.
+Result register_clouds(SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options);
+
+/// Registers query onto an index already built over model (build_seconds stays 0).
+Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options);
+
+}  // namespace nnb::icp

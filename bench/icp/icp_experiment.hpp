@@ -1,0 +1,41 @@
+#pragma once
+// An ICP experiment file (bench/experiments/icp_*.json): which pairs, adapters, bucket sizes and ICP
+// settings run_icp --experiment runs. Parsed in icp_json.cpp, the one place that includes nlohmann-json.
+#include "icp.hpp"
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace nnb::icp {
+
+/// ICP settings of an experiment (per pair if given), everything but the initial pose.
+struct Settings {
+  DistanceSchedule max_dist;
+  int max_iterations = 50;
+  double min_translation_step_m = 1e-6;
+  double min_rotation_step_rad = 1e-6;
+  std::size_t query_stride = 1;  ///< use every query_stride-th query point
+};
+
+struct Experiment {
+  std::string name;
+  std::string description;
+  std::vector<std::string> pairs;
+  std::string adapter_set = "all";         ///< "all" or "with_bucket" (adapters with a bucket/leaf parameter)
+  std::vector<std::string> adapters;        ///< an explicit list instead of adapter_set, if not empty
+  std::vector<std::string> exclude;         ///< adapters left out (e.g. brute force on 80k x 80k)
+  std::vector<int> bucket_sizes;            ///< empty = each adapter's configured value
+  std::map<std::string, Params> params;     ///< extra parameters per adapter
+  Settings icp;                             ///< for every pair ...
+  std::map<std::string, Settings> icp_by_pair;  ///< ... unless overridden here
+  int repetitions = 1;
+  std::string out;                          ///< default output path
+};
+
+/// Reads an experiment file; InputError (one line, naming the file) for a missing or malformed one.
+Experiment load_experiment(const std::string& path);
+/// The settings for that pair.
+const Settings& settings_for(const Experiment& experiment, const std::string& pair);
+
+}  // namespace nnb::icp

@@ -1,0 +1,123 @@
+// run_sweep: the experiment driver that reproduces the paper's sweeps (see bench/experiments/ and
+// results/README.md). Exit codes: 0 done, 2 bad input (nothing written), 1 other failure.
+#include "sweep/experiment.hpp"
+#include "sweep/machine.hpp"
+#include "sweep/progress.hpp"
+#include "sweep/results_file.hpp"
+#include "sweep/runner.hpp"
+
+#include "nnb/registry.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+
+namespace {
+
+using namespace nnb::sweep;
+
+struct Flags {
+  std::string experiment = "quick";
+  std::string adapters, datasets, dists, out;
+  std::optional<int> repetitions;
+  std::optional<double> budget_s;
+  std::optional<std::size_t> points;
+  bool resume = false;
+};
+
+Experiment configure(const Flags& flags, const std::vector<std::string>& all_adapters, const std::string& source_dir) {
+  Experiment e = load_experiment(experiment_path(flags.experiment, source_dir + "/bench/experiments"), all_adapters);
+  if (!flags.adapters.empty()) {
+    e.adapters = split_list(flags.adapters);
+    if (e.adapters.empty()) throw nnb::InputError("--adapters: no adapter given");
+  }
+  if (!flags.datasets.empty()) e.pairs = parse_datasets(flags.datasets);
+  if (!flags.dists.empty()) e.dists = parse_dists(flags.dists);
+  if (flags.repetitions) e.repetitions = *flags.repetitions;
+  if (flags.budget_s) e.budget_s = *flags.budget_s;
+  if (flags.points) e.synthetic_points = *flags.points;
+  validate(e, all_adapters);
+  return e;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Sweeps the maximal distance for every adapter, data set and query kind; writes JSON results."};
+  Flags flags;
+  app.add_option("--experiment", flags.experiment, "experiment name in bench/experiments/ or a JSON file")
+      ->capture_default_str();
+  app.add_option("--adapters", flags.adapters, "comma-separated adapters (default: the experiment's)");
+  app.add_option("--datasets", flags.datasets, "comma-separated data sets: NAME (model = query) or MODEL:QUERY");
+  app.add_option("--dists", flags.dists, "swept maximal distances, start:stop:step in metres");
+  app.add_option("--repetitions", flags.repetitions, "timed calls per cell");
+  app.add_option("--budget", flags.budget_s, "seconds per call above which larger distances are skipped");
+  app.add_option("--points", flags.points, "points per synthetic data set (the paper: 60000)");
+  app.add_option("--out", flags.out, "results file (default: results/sweep_<experiment>.json in the source tree)");
+  app.add_flag("--resume", flags.resume, "finish the cells missing from --out (same configuration only)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+
+  const BuildInfo build = read_build_info();
+  if (!build.release()) {
+    std::cerr << "run_sweep: WARNING: built " << (build.ndebug ? "" : "without NDEBUG ")
+              << (build.sanitizers ? "with sanitizers " : "") << "(" << build.build_type
+              << "): these timings are NOT reference timings; use a Release build without sanitizers\n";
+  }
+
+  try {
+    const auto all_adapters = nnb::adapter_names();
+    const Experiment experiment = configure(flags, all_adapters, build.source_dir);
+    const std::string out =
+        flags.out.empty() ? build.source_dir + "/results/sweep_" + experiment.name + ".json" : flags.out;
+    const LoadedData data = load_data(experiment);
+    const auto adapters = plan_adapters(experiment);
+    ResultsFile results(out, {&experiment, &adapters, &data, read_machine_info(), build});
+    if (flags.resume) {
+      if (!results.resume()) std::cerr << "run_sweep: --resume: " << out << " does not exist yet, starting afresh\n";
+    } else if (std::filesystem::exists(out)) {
+      std::cerr << "run_sweep: note: replacing " << out << " at the first checkpoint (--resume continues it)\n";
+    }
+    if (const char* abort_after = std::getenv("NNB_SWEEP_ABORT_AFTER_CELLS")) {
+      results.abort_after(static_cast<std::size_t>(std::atol(abort_after)));
+    }
+
+    const auto planned = planned_cells(experiment, adapters);
+    std::size_t already = 0;
+    for (const auto& name : planned) already += results.has(name);
+    std::cerr << "run_sweep: experiment '" << experiment.name << "': " << planned.size() << " cells ("
+              << already << " already in " << out << "), " << adapters.size() << " adapters, "
+              << experiment.pairs.size() << " model/query pairs, " << experiment.dists.values().size()
+              << " distances, " << experiment.repetitions << " repetitions, budget " << experiment.budget_s << " s\n";
+
+    Progress progress(planned.size(), already, isatty(STDERR_FILENO) != 0);
+    const std::size_t disagreements =
+        run_experiment(experiment, data, adapters, results.records(), results, progress);
+    progress.finish();
+    results.write();  // also when every cell was already there
+
+    std::size_t total_disagreements = 0;
+    for (const auto& r : results.records()) total_disagreements += r.agrees && !*r.agrees;
+    if (total_disagreements > 0) {
+      std::cerr << "run_sweep: !!! " << total_disagreements << " DISAGREEMENTS between exact adapters ("
+                << disagreements << " in this run): see the records with \"agrees\": false in " << out << "\n";
+    }
+    std::cerr << "run_sweep: wrote " << results.records().size() << " records to " << out << "\n";
+    return 0;
+  } catch (const nnb::InputError& e) {
+    std::cerr << "run_sweep: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "run_sweep: failed: " << e.what() << "\n";
+    return 1;
+  }
+}

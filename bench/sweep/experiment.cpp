@@ -1,0 +1,191 @@
+// Experiment files (JSON) and the flag syntaxes that override them. One of the two nlohmann TUs.
+#include "experiment.hpp"
+
+#include "nnb/cloud.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace nnb::sweep {
+namespace {
+
+using nlohmann::json;
+
+double parse_number(const std::string& text, const std::string& what) {
+  std::size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size()) throw InputError(what + ": '" + text + "' is not a number");
+  return value;
+}
+
+template <class T>
+T get(const json& object, const char* key, const std::string& file) {
+  try {
+    return object.at(key).get<T>();
+  } catch (const json::exception&) {
+    throw InputError(file + ": field '" + key + "' is missing or has the wrong type");
+  }
+}
+
+bool exactly_decimal(double value, int decimals) {
+  const double scaled = value * std::pow(10.0, decimals);
+  return std::abs(scaled - std::round(scaled)) < 1e-9 * std::max(1.0, std::abs(scaled));
+}
+
+}  // namespace
+
+std::vector<double> DistRange::values() const {
+  std::vector<double> out;
+  if (!(step_m > 0.0)) return out;
+  const auto count = static_cast<long>(std::floor((stop_m - start_m) / step_m + 1e-9));
+  for (long i = 0; i <= count; ++i) out.push_back(start_m + static_cast<double>(i) * step_m);
+  return out;
+}
+
+int DistRange::decimals() const {
+  int d = 2;
+  while (d < 9 && !(exactly_decimal(start_m, d) && exactly_decimal(step_m, d))) ++d;
+  return d;
+}
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> items;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    if (!item.empty()) items.push_back(item);
+  }
+  return items;
+}
+
+DistRange parse_dists(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream stream(text);
+  std::string part;
+  while (std::getline(stream, part, ':')) parts.push_back(part);
+  if (parts.size() != 3) throw InputError("--dists: expected start:stop:step in metres, got '" + text + "'");
+  return {parse_number(parts[0], "--dists start"), parse_number(parts[1], "--dists stop"),
+          parse_number(parts[2], "--dists step")};
+}
+
+std::vector<DataPair> parse_datasets(const std::string& text) {
+  std::vector<DataPair> pairs;
+  for (const auto& item : split_list(text)) {
+    const auto colon = item.find(':');
+    if (colon == std::string::npos) {
+      pairs.push_back({item, item});
+    } else {
+      pairs.push_back({item.substr(0, colon), item.substr(colon + 1)});
+    }
+    if (pairs.back().model.empty() || pairs.back().query.empty()) {
+      throw InputError("--datasets: '" + item + "' names no model or no query");
+    }
+  }
+  if (pairs.empty()) throw InputError("--datasets: no data set given");
+  return pairs;
+}
+
+std::string experiment_path(const std::string& name_or_file, const std::string& experiments_dir) {
+  namespace fs = std::filesystem;
+  const fs::path by_name = fs::path(experiments_dir) / (name_or_file + ".json");
+  if (name_or_file.find('/') == std::string::npos && fs::is_regular_file(by_name)) return by_name.string();
+  if (fs::is_regular_file(name_or_file)) return name_or_file;
+  throw InputError("--experiment: '" + name_or_file + "' is neither a file nor an experiment in " + experiments_dir);
+}
+
+Experiment load_experiment(const std::string& path, const std::vector<std::string>& all_adapters) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot read the experiment file");
+  json doc;
+  try {
+    doc = json::parse(in);
+  } catch (const json::exception& e) {
+    throw InputError(path + ": not valid JSON (" + std::string(e.what()) + ")");
+  }
+  if (!doc.is_object()) throw InputError(path + ": an experiment is a JSON object");
+  static const std::set<std::string> known{
+      "name", "description", "pairs", "grid", "real_pairs", "adapters", "searches", "k", "dists", "repetitions",
+      "build_repetitions", "budget_seconds", "max_cell_seconds", "neighbour_budget", "synthetic_points", "seed"};
+  for (const auto& item : doc.items()) {
+    if (!known.count(item.key())) throw InputError(path + ": unknown field '" + item.key() + "'");
+  }
+
+  Experiment e;
+  e.file = path;
+  e.name = get<std::string>(doc, "name", path);
+  if (doc.contains("description")) e.description = get<std::string>(doc, "description", path);
+  if (doc.contains("grid")) {
+    const auto& grid = doc["grid"];
+    for (const auto& model : get<std::vector<std::string>>(grid, "models", path)) {
+      for (const auto& query : get<std::vector<std::string>>(grid, "queries", path)) e.pairs.push_back({model, query});
+    }
+  }
+  if (doc.contains("pairs")) {
+    for (const auto& pair : doc["pairs"]) {
+      e.pairs.push_back({get<std::string>(pair, "model", path), get<std::string>(pair, "query", path)});
+    }
+  }
+  if (doc.contains("real_pairs")) {
+    for (const auto& name : get<std::vector<std::string>>(doc, "real_pairs", path)) e.pairs.push_back({name, name});
+  }
+  if (!doc.contains("adapters") || doc["adapters"] == "all") {
+    e.adapters = all_adapters;
+  } else {
+    e.adapters = get<std::vector<std::string>>(doc, "adapters", path);
+  }
+  if (doc.contains("searches")) e.searches = get<std::vector<std::string>>(doc, "searches", path);
+  if (doc.contains("k")) e.ks = get<std::vector<int>>(doc, "k", path);
+  if (doc.contains("dists")) e.dists = parse_dists(get<std::string>(doc, "dists", path));
+  if (doc.contains("repetitions")) e.repetitions = get<int>(doc, "repetitions", path);
+  if (doc.contains("build_repetitions")) e.build_repetitions = get<int>(doc, "build_repetitions", path);
+  if (doc.contains("budget_seconds")) e.budget_s = get<double>(doc, "budget_seconds", path);
+  if (doc.contains("max_cell_seconds")) e.cell_s = get<double>(doc, "max_cell_seconds", path);
+  if (doc.contains("neighbour_budget")) e.neighbour_budget = get<std::size_t>(doc, "neighbour_budget", path);
+  if (doc.contains("synthetic_points")) e.synthetic_points = get<std::size_t>(doc, "synthetic_points", path);
+  if (doc.contains("seed")) e.seed = get<std::uint64_t>(doc, "seed", path);
+  return e;
+}
+
+void validate(const Experiment& e, const std::vector<std::string>& all_adapters) {
+  if (e.pairs.empty()) throw InputError("experiment '" + e.name + "': no data sets");
+  if (e.adapters.empty()) throw InputError("experiment '" + e.name + "': no adapters");
+  for (const auto& name : e.adapters) {
+    if (std::find(all_adapters.begin(), all_adapters.end(), name) == all_adapters.end()) {
+      std::string known;
+      for (const auto& a : all_adapters) known += (known.empty() ? "" : ", ") + a;
+      throw InputError("unknown adapter '" + name + "' (built in: " + known + ")");
+    }
+  }
+  for (const auto& search : e.searches) {
+    if (search != "ranged" && search != "knn" && search != "radius") {
+      throw InputError("unknown search '" + search + "' (expected ranged, knn or radius)");
+    }
+  }
+  for (int k : e.ks) {
+    if (k < 1) throw InputError("k must be at least 1 (got " + std::to_string(k) + ")");
+  }
+  if (e.ks.empty()) throw InputError("no k given");
+  const auto& d = e.dists;
+  if (!std::isfinite(d.step_m) || d.step_m <= 0.0) throw InputError("distance step must be > 0 m");
+  if (!std::isfinite(d.start_m) || d.start_m < 0.0) throw InputError("distances must be >= 0 m");
+  if (!std::isfinite(d.stop_m) || d.stop_m < d.start_m) throw InputError("distance stop must be >= start");
+  if (d.values().size() > 100000) throw InputError("more than 100000 distances: is the step right?");
+  if (e.repetitions < 1) throw InputError("repetitions must be at least 1");
+  if (e.build_repetitions < 1) throw InputError("build repetitions must be at least 1");
+  if (!(e.budget_s > 0.0)) throw InputError("the time budget must be > 0 s");
+  if (!(e.cell_s >= 0.0)) throw InputError("max_cell_seconds must be >= 0 s");
+  if (e.synthetic_points < 1) throw InputError("synthetic data sets need at least 1 point");
+}
+
+}  // namespace nnb::sweep

@@ -1,0 +1,59 @@
+#pragma once
+// What a sweep runs: read from a JSON file in bench/experiments/, then overridden by command-line flags.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nnb::sweep {
+
+/// One model/query combination. For a real pair both are the pair's name (the catalog picks the scans).
+struct DataPair {
+  std::string model;
+  std::string query;
+};
+
+/// The swept maximal distances in metres: start + i * step for i = 0, 1, ... while <= stop.
+struct DistRange {
+  double start_m = 0.0;
+  double stop_m = 1.0;
+  double step_m = 0.02;
+
+  /// Every swept distance in metres, computed as start + i * step (no accumulated rounding).
+  std::vector<double> values() const;
+  /// Decimals needed to print start and step exactly (at least 2), for cell names.
+  int decimals() const;
+};
+
+struct Experiment {
+  std::string name;         ///< e.g. "quick"
+  std::string description;
+  std::string file;         ///< where it was read from
+  std::vector<DataPair> pairs;
+  std::vector<std::string> adapters;  ///< in registry order; from "all" when the file says so
+  std::vector<std::string> searches{"ranged", "knn", "radius"};  ///< kinds considered (see runner.hpp)
+  std::vector<int> ks{1};
+  DistRange dists;
+  int repetitions = 3;
+  int build_repetitions = 3;
+  double budget_s = 2.0;                      ///< per cell, per repetition
+  double cell_s = 0.0;  ///< stop repeating a cell once its calls took this long in total (0: no limit)
+  std::size_t neighbour_budget = 20'000'000;  ///< per cell: more neighbours than this stops larger distances
+  std::size_t synthetic_points = 60000;
+  std::uint64_t seed = 1;
+};
+
+/// The experiment file for a name (experiments_dir/NAME.json) or a path; throws InputError if unreadable.
+std::string experiment_path(const std::string& name_or_file, const std::string& experiments_dir);
+/// Reads an experiment file; "adapters": "all" expands to all_adapters. Throws InputError with one line.
+Experiment load_experiment(const std::string& path, const std::vector<std::string>& all_adapters);
+/// Parses "start:stop:step" in metres; throws InputError for a malformed text.
+DistRange parse_dists(const std::string& text);
+/// Parses "a,b:c": a name alone is the pair (a, a), "model:query" a combination.
+std::vector<DataPair> parse_datasets(const std::string& text);
+/// Splits a comma-separated list, dropping empty items.
+std::vector<std::string> split_list(const std::string& text);
+/// Throws InputError for anything a run cannot do (unknown adapter, step <= 0, negative distance...).
+void validate(const Experiment& experiment, const std::vector<std::string>& all_adapters);
+
+}  // namespace nnb::sweep

@@ -1,0 +1,109 @@
+#include "machine.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <sstream>
+
+namespace nnb::sweep {
+namespace {
+
+std::string read_line(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+long parse_size(const std::string& text) {  // "32K", "1024K", "32768K", "8M"
+  if (text.empty()) return 0;
+  long value = std::atol(text.c_str());
+  switch (text.back()) {
+    case 'K': value *= 1024; break;
+    case 'M': value *= 1024 * 1024; break;
+    case 'G': value *= 1024L * 1024 * 1024; break;
+    default: break;
+  }
+  return value;
+}
+
+int count_cpus(const std::string& list) {  // "0-1,4"
+  int n = 0;
+  std::stringstream stream(list);
+  std::string range;
+  while (std::getline(stream, range, ',')) {
+    const auto dash = range.find('-');
+    if (dash == std::string::npos) ++n;
+    else n += std::atoi(range.c_str() + dash + 1) - std::atoi(range.c_str()) + 1;
+  }
+  return n;
+}
+
+std::string run_command(const std::string& command) {
+  std::string out;
+  if (FILE* pipe = popen(command.c_str(), "r")) {
+    char buffer[256];
+    while (fgets(buffer, sizeof buffer, pipe)) out += buffer;
+    pclose(pipe);
+  }
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out;
+}
+
+}  // namespace
+
+MachineInfo read_machine_info() {
+  MachineInfo m;
+  const std::time_t now = std::time(nullptr);
+  char date[64];
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%S%z", std::localtime(&now));
+  m.date = date;
+  char host[256] = {};
+  if (gethostname(host, sizeof host - 1) == 0) m.host_name = host;
+  m.num_cpus = static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN));
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  for (std::string line; std::getline(cpuinfo, line);) {
+    if (line.rfind("cpu MHz", 0) == 0) {
+      m.mhz_per_cpu = std::atof(line.c_str() + line.find(':') + 1);
+      break;
+    }
+  }
+  const std::string governor = read_line("/sys/devices/system/cpu/cpu0/cpufreq/scaling_governor");
+  m.cpu_scaling_enabled = !governor.empty() && governor != "performance";
+  for (int i = 0;; ++i) {
+    const std::string dir = "/sys/devices/system/cpu/cpu0/cache/index" + std::to_string(i) + "/";
+    const std::string type = read_line(dir + "type");
+    if (type.empty()) break;
+    m.caches.push_back({type, std::atoi(read_line(dir + "level").c_str()), parse_size(read_line(dir + "size")),
+                        count_cpus(read_line(dir + "shared_cpu_list"))});
+  }
+  double load[3];
+  if (getloadavg(load, 3) == 3) m.load_avg.assign(load, load + 3);
+  return m;
+}
+
+BuildInfo read_build_info() {
+  BuildInfo b;
+  b.compiler = NNB_SWEEP_COMPILER;
+  b.flags = NNB_SWEEP_FLAGS;
+  b.build_type = NNB_SWEEP_BUILD_TYPE;
+  b.source_dir = NNB_SWEEP_SOURCE_DIR;
+#ifdef NDEBUG
+  b.ndebug = true;
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(NNB_SWEEP_SANITIZE)
+  b.sanitizers = true;
+#endif
+  // Read at run time, not baked: a binary built before the last commit would report a stale one.
+  const std::string git = "git -C '" + b.source_dir + "' ";
+  b.git_commit = run_command(git + "rev-parse HEAD 2>/dev/null");
+  if (!b.git_commit.empty() && !run_command(git + "status --porcelain --untracked-files=no 2>/dev/null").empty()) {
+    b.git_commit += "+dirty";
+  }
+  return b;
+}
+
+}  // namespace nnb::sweep

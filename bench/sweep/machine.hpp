@@ -1,0 +1,42 @@
+#pragma once
+// Facts about this machine and this build, for the results' context block.
+#include <string>
+#include <vector>
+
+namespace nnb::sweep {
+
+struct CacheInfo {
+  std::string type;  ///< "Data", "Instruction" or "Unified"
+  int level = 0;
+  long size_bytes = 0;
+  int num_sharing = 0;  ///< CPUs sharing this cache
+};
+
+struct MachineInfo {
+  std::string date;       ///< local time, ISO 8601 with offset
+  std::string host_name;
+  int num_cpus = 0;
+  double mhz_per_cpu = 0.0;
+  bool cpu_scaling_enabled = false;
+  std::vector<CacheInfo> caches;  ///< of cpu0, from /sys/devices/system/cpu/cpu0/cache
+  std::vector<double> load_avg;
+};
+
+struct BuildInfo {
+  std::string compiler;    ///< id and version
+  std::string flags;       ///< CMAKE_CXX_FLAGS and those of the build type
+  std::string build_type;  ///< CMAKE_BUILD_TYPE
+  bool ndebug = false;     ///< assertions compiled out
+  bool sanitizers = false;
+  std::string git_commit;  ///< HEAD of the source tree at run time ("+dirty" when modified), "" when unknown
+  std::string source_dir;
+  /// True when timings from this binary may be published: NDEBUG and no sanitizers.
+  bool release() const { return ndebug && !sanitizers; }
+};
+
+/// Reads the machine's facts now (missing files leave fields empty).
+MachineInfo read_machine_info();
+/// The facts baked into this binary at configure time, plus the git commit read at run time.
+BuildInfo read_build_info();
+
+}  // namespace nnb::sweep

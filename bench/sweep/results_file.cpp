@@ -1,0 +1,279 @@
+// Records to and from Google Benchmark-style JSON; the atomic writer. One of the two nlohmann TUs.
+#include "results_file.hpp"
+
+#include "nnb/cloud.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <unistd.h>
+
+namespace nnb::sweep {
+
+using nlohmann::json;
+using nlohmann::ordered_json;
+
+struct ResultsFile::Json {
+  ordered_json context;
+};
+
+namespace {
+
+ordered_json config_of(const RunDescription& run) {
+  const Experiment& e = *run.experiment;
+  ordered_json c;
+  c["experiment"] = e.name;
+  c["pairs"] = ordered_json::array();
+  for (const auto& p : e.pairs) c["pairs"].push_back({{"model", p.model}, {"query", p.query}});
+  c["adapters"] = ordered_json::array();
+  for (const auto& a : *run.adapters) {
+    ordered_json kinds = ordered_json::array();
+    for (auto kind : a.kinds) kinds.push_back(to_string(kind));
+    c["adapters"].push_back({{"name", a.name}, {"version", a.info.version}, {"params", a.info.params},
+                             {"searches", kinds}});
+  }
+  c["k"] = e.ks;
+  c["dists"] = {{"start_m", e.dists.start_m}, {"stop_m", e.dists.stop_m}, {"step_m", e.dists.step_m}};
+  c["repetitions"] = e.repetitions;
+  c["build_repetitions"] = e.build_repetitions;
+  c["budget_seconds"] = e.budget_s;
+  c["max_cell_seconds"] = e.cell_s;
+  c["neighbour_budget"] = e.neighbour_budget;
+  c["synthetic_points"] = e.synthetic_points;
+  c["seed"] = e.seed;
+  c["build_type"] = run.build.build_type;
+  c["release"] = run.build.release();
+  return c;
+}
+
+ordered_json datasets_of(const LoadedData& data) {
+  ordered_json list = ordered_json::array();
+  for (const auto* role : {&data.models, &data.queries}) {
+    for (const auto& [spec, cloud] : *role) {
+      ordered_json d{{"spec", spec}, {"role", role == &data.models ? "model" : "query"}, {"kind", cloud.kind},
+                     {"source", cloud.source}, {"points", cloud.points.cols()}, {"n_read", cloud.n_read},
+                     {"n_dropped", cloud.n_dropped}};
+      if (cloud.kind == "synthetic") d["seed"] = cloud.seed;
+      if (!cloud.sha256.empty()) d["sha256"] = cloud.sha256;
+      list.push_back(d);
+    }
+  }
+  return list;
+}
+
+ordered_json context_of(const RunDescription& run) {
+  const MachineInfo& m = run.machine;
+  const BuildInfo& b = run.build;
+  ordered_json c;
+  c["date"] = m.date;
+  c["host_name"] = m.host_name;
+  c["executable"] = "run_sweep";
+  c["num_cpus"] = m.num_cpus;
+  c["mhz_per_cpu"] = static_cast<long>(m.mhz_per_cpu + 0.5);
+  c["cpu_scaling_enabled"] = m.cpu_scaling_enabled;
+  c["caches"] = ordered_json::array();
+  for (const auto& cache : m.caches) {
+    c["caches"].push_back({{"type", cache.type}, {"level", cache.level}, {"size", cache.size_bytes},
+                           {"num_sharing", cache.num_sharing}});
+  }
+  c["load_avg"] = m.load_avg;
+  c["library_build_type"] = b.ndebug ? "release" : "debug";
+  c["compiler"] = b.compiler;
+  c["flags"] = b.flags;
+  c["build_type"] = b.build_type;
+  c["ndebug"] = b.ndebug;
+  c["sanitizers"] = b.sanitizers;
+  c["git_commit"] = b.git_commit.empty() ? ordered_json(nullptr) : ordered_json(b.git_commit);
+  c["experiment"] = run.experiment->name;
+  c["experiment_file"] = run.experiment->file;
+  c["config"] = config_of(run);
+  c["adapters"] = ordered_json::object();  // by name, as plots/results_io.py reads it
+  for (const auto& a : *run.adapters) {
+    const AdapterInfo& i = a.info;
+    c["adapters"][i.name] = {{"library", i.library}, {"version", i.version}, {"structure", i.structure},
+                             {"scalar", i.scalar}, {"exact", i.exact}, {"knn", to_string(i.knn)},
+                             {"radius", to_string(i.radius)}, {"ranged", to_string(i.ranged)},
+                             {"params", i.params}, {"notes", i.notes}};
+  }
+  c["datasets"] = datasets_of(*run.data);
+  c["resumed"] = ordered_json::array();
+  return c;
+}
+
+void put_stats(ordered_json& j, const char* prefix, const TimeStats& s) {
+  const std::string p = prefix;
+  j[p + "median_s"] = s.median_s;
+  j[p + "mean_s"] = s.mean_s;
+  j[p + "min_s"] = s.min_s;
+  j[p + "stddev_s"] = s.stddev_s;
+}
+
+ordered_json to_json(const Record& r) {
+  ordered_json j;
+  j["name"] = r.name;
+  j["run_name"] = r.name;
+  j["run_type"] = "iteration";
+  j["repetitions"] = r.repetitions;
+  j["repetition_index"] = 0;
+  j["threads"] = 1;
+  j["iterations"] = r.repetitions;
+  j["real_time"] = r.wall.median_s;
+  j["cpu_time"] = r.cpu.median_s;
+  j["time_unit"] = "s";
+  j["type"] = r.type == Record::Type::build ? "build" : "sweep";
+  j["model"] = r.model;
+  if (r.type == Record::Type::sweep) j["query"] = r.query;
+  j["adapter"] = r.adapter;
+  j["exact"] = r.exact;
+  if (!r.skipped.empty()) {
+    j["skipped"] = r.skipped;
+    j["error_occurred"] = true;  // Google Benchmark's way to say a record has no timing
+    j["error_message"] = r.skipped;
+  }
+  put_stats(j, "", r.wall);
+  put_stats(j, "cpu_", r.cpu);
+  if (r.type == Record::Type::build) {
+    j["build_seconds"] = r.wall.median_s;
+    j["index_bytes"] = r.index_bytes;
+    j["n_points"] = r.n_points;
+    return j;
+  }
+  j["search"] = r.search;
+  j["strategy"] = r.strategy;
+  if (r.max_dist_m) j["max_dist"] = *r.max_dist_m;
+  if (r.k) j["k"] = *r.k;
+  j["found"] = r.found;
+  j["neighbours"] = r.neighbours;
+  j["dist_sum"] = r.dist_sum_m;
+  if (r.agrees) {
+    j["agrees"] = *r.agrees;
+    j["checked_against"] = r.checked_against;
+    if (!*r.agrees) j["disagreement"] = r.disagreement;
+  }
+  return j;
+}
+
+TimeStats get_stats(const json& j, const std::string& p) {
+  return {j.at(p + "median_s").get<double>(), j.at(p + "mean_s").get<double>(), j.at(p + "min_s").get<double>(),
+          j.at(p + "stddev_s").get<double>()};
+}
+
+Record from_json(const json& j) {
+  Record r;
+  r.type = j.at("type") == "build" ? Record::Type::build : Record::Type::sweep;
+  r.name = j.at("name").get<std::string>();
+  r.model = j.at("model").get<std::string>();
+  r.adapter = j.at("adapter").get<std::string>();
+  r.exact = j.at("exact").get<bool>();
+  r.repetitions = j.at("repetitions").get<int>();
+  r.wall = get_stats(j, "");
+  r.cpu = get_stats(j, "cpu_");
+  if (j.contains("skipped")) r.skipped = j["skipped"].get<std::string>();
+  if (r.type == Record::Type::build) {
+    r.index_bytes = j.at("index_bytes").get<std::size_t>();
+    r.n_points = j.at("n_points").get<std::size_t>();
+    return r;
+  }
+  r.query = j.at("query").get<std::string>();
+  r.search = j.at("search").get<std::string>();
+  r.strategy = j.at("strategy").get<std::string>();
+  if (j.contains("max_dist")) r.max_dist_m = j["max_dist"].get<double>();
+  if (j.contains("k")) r.k = j["k"].get<int>();
+  r.found = j.at("found").get<std::size_t>();
+  r.neighbours = j.at("neighbours").get<std::size_t>();
+  r.dist_sum_m = j.at("dist_sum").get<double>();
+  if (j.contains("agrees")) {
+    r.agrees = j["agrees"].get<bool>();
+    r.checked_against = j.at("checked_against").get<std::string>();
+    if (j.contains("disagreement")) r.disagreement = j["disagreement"].get<std::string>();
+  }
+  return r;
+}
+
+}  // namespace
+
+ResultsFile::ResultsFile(std::string path, const RunDescription& run)
+    : path_(std::move(path)), json_(std::make_unique<Json>()) {
+  json_->context = context_of(run);
+}
+
+ResultsFile::~ResultsFile() = default;
+
+bool ResultsFile::resume() {
+  if (!std::filesystem::exists(path_)) return false;
+  std::ifstream in(path_);
+  json doc;
+  try {
+    doc = json::parse(in);
+  } catch (const json::exception& e) {
+    throw InputError("--resume: " + path_ + " is not a results file (" + e.what() + ")");
+  }
+  if (!doc.contains("context") || !doc["context"].contains("config") || !doc.contains("benchmarks")) {
+    throw InputError("--resume: " + path_ + " has no context.config or benchmarks: not made by run_sweep");
+  }
+  // Compared as plain JSON so that key order does not matter.
+  const json wanted = json::parse(json_->context["config"].dump());
+  if (doc["context"]["config"] != wanted) {
+    throw InputError("--resume: " + path_ + " was made with another configuration (experiment, flags, adapters "
+                     "or build); refusing to mix results. Use another --out or remove the file.");
+  }
+  // Keep the original context (its date and machine), noting this resumption.
+  ordered_json original = ordered_json::parse(doc["context"].dump());
+  original["resumed"].push_back(json_->context["date"]);
+  json_->context = original;
+  try {
+    for (const auto& item : doc["benchmarks"]) {
+      Record r = from_json(item);
+      if (names_.insert(r.name).second) {
+        records_.push_back(r);
+        serialised_.push_back(ordered_json::parse(item.dump()).dump(2));
+      }
+    }
+  } catch (const json::exception& e) {
+    throw InputError("--resume: " + path_ + ": a record is malformed (" + e.what() + ")");
+  }
+  return true;
+}
+
+void ResultsFile::add(const std::vector<Record>& batch) {
+  for (const auto& r : batch) {
+    if (!names_.insert(r.name).second) continue;
+    records_.push_back(r);
+    serialised_.push_back(to_json(r).dump(2));
+  }
+  write();
+  added_ += batch.size();
+  if (abort_after_ > 0 && added_ >= abort_after_) {
+    std::fprintf(stderr, "run_sweep: NNB_SWEEP_ABORT_AFTER_CELLS reached, killing myself\n");
+    std::raise(SIGKILL);
+  }
+}
+
+void ResultsFile::write() const {
+  namespace fs = std::filesystem;
+  const fs::path target(path_);
+  if (target.has_parent_path()) fs::create_directories(target.parent_path());
+  // Same directory, so that rename() is atomic; a name ending in .tmp, which results/.gitignore ignores.
+  const fs::path temporary = target.string() + "." + std::to_string(getpid()) + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error("cannot write " + temporary.string());
+    out << "{\n\"context\": " << json_->context.dump(2) << ",\n\"benchmarks\": [";
+    for (std::size_t i = 0; i < serialised_.size(); ++i) out << (i ? ",\n" : "\n") << serialised_[i];
+    out << "\n]\n}\n";
+    out.flush();
+    if (!out) throw std::runtime_error("failed writing " + temporary.string());
+  }
+  std::error_code error;
+  fs::rename(temporary, target, error);
+  if (error) {
+    fs::remove(temporary);
+    throw std::runtime_error("cannot rename " + temporary.string() + " to " + path_ + ": " + error.message());
+  }
+}
+
+}  // namespace nnb::sweep

@@ -1,0 +1,56 @@
+#pragma once
+// The results file: Google Benchmark's JSON schema (context + benchmarks[]), rewritten atomically
+// (temporary file in the same directory, then rename) at every checkpoint.
+#include "experiment.hpp"
+#include "machine.hpp"
+#include "record.hpp"
+#include "runner.hpp"
+
+#include <cstddef>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace nnb::sweep {
+
+struct RunDescription {
+  const Experiment* experiment;
+  const std::vector<PlannedAdapter>* adapters;
+  const LoadedData* data;
+  MachineInfo machine;
+  BuildInfo build;
+};
+
+class ResultsFile final : public ResultsSink {
+ public:
+  /// A results file at path for this run; nothing is written before the first add() or write().
+  ResultsFile(std::string path, const RunDescription& run);
+  ~ResultsFile() override;
+
+  /// Loads the records of an existing file made with the same configuration; throws InputError if
+  /// the file is unreadable or its configuration differs. Returns false when there is no file.
+  bool resume();
+  /// Records already in the file (after resume()) and added since.
+  const std::vector<Record>& records() const { return records_; }
+
+  bool has(const std::string& name) const override { return names_.count(name) > 0; }
+  void add(const std::vector<Record>& batch) override;
+  /// Writes the whole file atomically; throws std::runtime_error on an I/O failure.
+  void write() const;
+
+  /// Calls after each checkpoint, for the kill test: raise SIGKILL once this many cells are recorded.
+  void abort_after(std::size_t cells) { abort_after_ = cells; }
+
+ private:
+  struct Json;
+  std::string path_;
+  std::unique_ptr<Json> json_;  // context and config, nlohmann kept out of this header
+  std::vector<Record> records_;
+  std::vector<std::string> serialised_;  // each record's JSON text, made once
+  std::set<std::string> names_;
+  std::size_t added_ = 0;
+  std::size_t abort_after_ = 0;
+};
+
+}  // namespace nnb::sweep

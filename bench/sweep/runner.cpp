@@ -1,0 +1,379 @@
+#include "runner.hpp"
+
+#include "nnb/registry.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <iomanip>
+#include <numeric>
+#include <sstream>
+
+namespace nnb::sweep {
+namespace {
+
+// One cell to run: a (kind, k) group is swept over the distances in increasing order.
+struct Cell {
+  std::string name;
+  std::optional<double> max_dist_m;
+  std::string dist_label;  // as in the name, "" for knn
+};
+
+struct Group {
+  SearchKind kind;
+  std::optional<int> k;
+  std::vector<Cell> cells;
+};
+
+// Cell names use the spec with '/' replaced, so that a file path stays one name component.
+std::string label_of(const std::string& spec) {
+  std::string label = spec;
+  std::replace(label.begin(), label.end(), '/', '_');
+  return label;
+}
+
+std::string format_dist(double value_m, int decimals) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(decimals) << value_m;
+  return out.str();
+}
+
+std::string seconds_text(double s) {
+  std::ostringstream out;
+  out << std::setprecision(3) << s;
+  return out.str();
+}
+
+std::vector<Group> groups_for(const Experiment& e, const DataPair& pair, const PlannedAdapter& adapter) {
+  const std::string prefix = "sweep/" + label_of(pair.model) + "/" + label_of(pair.query) + "/" + adapter.name + "/";
+  const auto dists = e.dists.values();
+  const int decimals = e.dists.decimals();
+  std::vector<Group> groups;
+  for (SearchKind kind : adapter.kinds) {
+    if (kind == SearchKind::knn) {
+      for (int k : e.ks) {
+        groups.push_back({kind, k, {{prefix + "knn/k:" + std::to_string(k), std::nullopt, ""}}});
+      }
+      continue;
+    }
+    std::vector<std::optional<int>> ks;
+    if (kind == SearchKind::radius) ks.push_back(std::nullopt);
+    else ks.assign(e.ks.begin(), e.ks.end());
+    for (const auto& k : ks) {
+      Group group{kind, k, {}};
+      std::string base = prefix + to_string(kind) + "/";
+      if (k && *k != 1) base += "k:" + std::to_string(*k) + "/";
+      for (double d : dists) {
+        const std::string label = format_dist(d, decimals);
+        group.cells.push_back({base + "max_dist:" + label, d, label});
+      }
+      groups.push_back(std::move(group));
+    }
+  }
+  return groups;
+}
+
+std::vector<std::string> distinct_models(const Experiment& e) {
+  std::vector<std::string> models;
+  for (const auto& pair : e.pairs) {
+    if (std::find(models.begin(), models.end(), pair.model) == models.end()) models.push_back(pair.model);
+  }
+  return models;
+}
+
+std::string build_name(const std::string& model, const std::string& adapter) {
+  return "build/" + label_of(model) + "/" + adapter;
+}
+
+TimeStats stats_of(std::vector<double> samples) {
+  TimeStats s;
+  if (samples.empty()) return s;
+  std::sort(samples.begin(), samples.end());
+  const std::size_t n = samples.size();
+  s.median_s = n % 2 ? samples[n / 2] : 0.5 * (samples[n / 2 - 1] + samples[n / 2]);
+  s.mean_s = std::accumulate(samples.begin(), samples.end(), 0.0) / static_cast<double>(n);
+  s.min_s = samples.front();
+  if (n > 1) {
+    double sq = 0.0;
+    for (double x : samples) sq += (x - s.mean_s) * (x - s.mean_s);
+    s.stddev_s = std::sqrt(sq / static_cast<double>(n - 1));  // sample deviation, as Google Benchmark
+  }
+  return s;
+}
+
+double cpu_now_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+// Compares exact adapters cell by cell with the first exact adapter that ran the same cell
+// (brute force, being first in the registry, whenever it ran).
+class Agreement {
+ public:
+  static std::string key(const Record& r) {
+    const auto slash = r.name.rfind('/');
+    return r.model + "|" + r.query + "|" + r.search + "|" + (r.k ? std::to_string(*r.k) : "-") + "|" +
+           (r.max_dist_m ? r.name.substr(slash + 1) : "-");
+  }
+  void remember(const Record& r) {
+    if (r.type == Record::Type::sweep && r.exact && r.skipped.empty()) reference_.emplace(key(r), r);
+  }
+  // Sets agrees/checked_against/disagreement; returns false on a disagreement.
+  bool check(Record& r) {
+    if (r.type != Record::Type::sweep || !r.exact || !r.skipped.empty()) return true;
+    const auto [it, inserted] = reference_.emplace(key(r), r);
+    const Record& ref = it->second;
+    r.checked_against = ref.adapter;
+    if (inserted) {
+      r.agrees = true;
+      return true;
+    }
+    const double tolerance = 1e-9 * std::max(std::abs(ref.dist_sum_m), std::abs(r.dist_sum_m));
+    const bool same = r.found == ref.found && std::abs(r.dist_sum_m - ref.dist_sum_m) <= tolerance;
+    r.agrees = same;
+    if (!same) {
+      std::ostringstream text;
+      text << std::setprecision(17) << "found " << r.found << " vs " << ref.found << " (" << ref.adapter
+           << "), dist_sum " << r.dist_sum_m << " m vs " << ref.dist_sum_m << " m";
+      r.disagreement = text.str();
+    }
+    return same;
+  }
+
+ private:
+  std::map<std::string, Record> reference_;
+};
+
+Record sweep_record(const DataPair& pair, const PlannedAdapter& adapter, const Group& group, const Cell& cell) {
+  Record r;
+  r.type = Record::Type::sweep;
+  r.name = cell.name;
+  r.model = pair.model;
+  r.query = pair.query;
+  r.adapter = adapter.name;
+  r.exact = adapter.info.exact;
+  r.search = to_string(group.kind);
+  r.strategy = to_string(adapter.info.strategy(group.kind));
+  r.max_dist_m = cell.max_dist_m;
+  r.k = group.k;
+  return r;
+}
+
+// Returns the slowest repetition's wall time, seconds.
+double run_cell(const SearchIndex& index, const Cloud& queries, const Group& group, const Cell& cell,
+              const Experiment& e, Record& r) {
+  Neighbours out;  // local: a radius cell may hold hundreds of MB, freed when the cell ends
+  std::vector<double> wall, cpu;
+  for (int rep = 0; rep < e.repetitions; ++rep) {
+    const double cpu0 = cpu_now_s();
+    const auto t0 = std::chrono::steady_clock::now();
+    switch (group.kind) {
+      case SearchKind::knn: index.knn(queries, *group.k, out); break;
+      case SearchKind::radius: index.radius(queries, *cell.max_dist_m, out); break;
+      case SearchKind::ranged: index.ranged(queries, *group.k, *cell.max_dist_m, out); break;
+    }
+    const auto t1 = std::chrono::steady_clock::now();
+    cpu.push_back(cpu_now_s() - cpu0);
+    wall.push_back(std::chrono::duration<double>(t1 - t0).count());
+    if (wall.back() > e.budget_s) break;  // no point repeating a cell that is over budget
+    if (e.cell_s > 0.0 && std::accumulate(wall.begin(), wall.end(), 0.0) > e.cell_s) break;
+  }
+  r.repetitions = static_cast<int>(wall.size());
+  r.wall = stats_of(wall);
+  r.cpu = stats_of(cpu);
+  r.found = out.queries_with_neighbours();
+  r.neighbours = out.total();
+  double sum = 0.0;
+  for (double sq : out.sq_dists) sum += std::sqrt(sq);
+  r.dist_sum_m = sum;
+  return *std::max_element(wall.begin(), wall.end());
+}
+
+}  // namespace
+
+LoadedData load_data(const Experiment& e) {
+  datasets::DataOptions options;
+  options.synthetic_points = e.synthetic_points;
+  options.seed = e.seed;
+  LoadedData data;
+  for (const auto& pair : e.pairs) {
+    if (!data.models.count(pair.model)) {
+      data.models.emplace(pair.model, datasets::resolve_cloud(pair.model, datasets::Role::model, options));
+    }
+    if (!data.queries.count(pair.query)) {
+      data.queries.emplace(pair.query, datasets::resolve_cloud(pair.query, datasets::Role::query, options));
+    }
+  }
+  return data;
+}
+
+std::vector<PlannedAdapter> plan_adapters(const Experiment& e) {
+  const auto wants = [&](SearchKind kind) {
+    return std::find(e.searches.begin(), e.searches.end(), to_string(kind)) != e.searches.end();
+  };
+  std::vector<PlannedAdapter> planned;
+  for (const auto& name : e.adapters) {
+    PlannedAdapter a{name, make_adapter(name)->info(), {}};
+    if (wants(SearchKind::ranged)) a.kinds.push_back(SearchKind::ranged);
+    for (SearchKind kind : {SearchKind::knn, SearchKind::radius}) {
+      const Strategy s = a.info.strategy(kind);
+      if (wants(kind) && (s == Strategy::native || s == Strategy::via_box)) a.kinds.push_back(kind);
+    }
+    planned.push_back(std::move(a));
+  }
+  return planned;
+}
+
+std::vector<std::string> planned_cells(const Experiment& e, const std::vector<PlannedAdapter>& adapters) {
+  std::vector<std::string> names;
+  for (const auto& model : distinct_models(e)) {
+    for (const auto& adapter : adapters) {
+      names.push_back(build_name(model, adapter.name));
+      for (const auto& pair : e.pairs) {
+        if (pair.model != model) continue;
+        for (const auto& group : groups_for(e, pair, adapter)) {
+          for (const auto& cell : group.cells) names.push_back(cell.name);
+        }
+      }
+    }
+  }
+  return names;
+}
+
+std::size_t run_experiment(const Experiment& e, const LoadedData& data, const std::vector<PlannedAdapter>& adapters,
+                           const std::vector<Record>& previous, ResultsSink& sink, Progress& progress) {
+  Agreement agreement;
+  for (const auto& r : previous) agreement.remember(r);
+  std::size_t disagreements = 0;
+
+  for (const auto& model_spec : distinct_models(e)) {
+    const datasets::NamedCloud& model = data.models.at(model_spec);
+    for (const auto& adapter : adapters) {
+      // The cells of this (model, adapter); build only if one of them is still to do.
+      std::vector<std::pair<const DataPair*, std::vector<Group>>> work;
+      std::size_t to_do = 0, total = 1;
+      const std::string build = build_name(model_spec, adapter.name);
+      to_do += !sink.has(build);
+      for (const auto& pair : e.pairs) {
+        if (pair.model != model_spec) continue;
+        work.emplace_back(&pair, groups_for(e, pair, adapter));
+        for (const auto& group : work.back().second) {
+          for (const auto& cell : group.cells) {
+            to_do += !sink.has(cell.name);
+            ++total;
+          }
+        }
+      }
+      if (to_do == 0) continue;
+
+      // Construction: a fresh index per repetition; the last one answers the queries.
+      progress.begin(build);
+      Record b;
+      b.type = Record::Type::build;
+      b.name = build;
+      b.model = model_spec;
+      b.adapter = adapter.name;
+      b.exact = adapter.info.exact;
+      b.n_points = static_cast<std::size_t>(model.points.cols());
+      std::unique_ptr<SearchIndex> index;
+      std::string build_error;
+      try {
+        std::vector<double> wall, cpu;
+        for (int rep = 0; rep < e.build_repetitions; ++rep) {
+          index.reset();
+          auto fresh = make_adapter(adapter.name);
+          const double cpu0 = cpu_now_s();
+          const auto t0 = std::chrono::steady_clock::now();
+          fresh->build(model.points);
+          const auto t1 = std::chrono::steady_clock::now();
+          cpu.push_back(cpu_now_s() - cpu0);
+          wall.push_back(std::chrono::duration<double>(t1 - t0).count());
+          index = std::move(fresh);
+        }
+        b.repetitions = static_cast<int>(wall.size());
+        b.wall = stats_of(wall);
+        b.cpu = stats_of(cpu);
+        b.index_bytes = index->index_bytes();
+      } catch (const std::exception& ex) {
+        build_error = std::string("error: build failed: ") + ex.what();
+        b.skipped = build_error;
+        index.reset();
+        progress.loud("ERROR " + build + ": " + ex.what());
+      }
+      if (!sink.has(build)) {
+        sink.add({b});
+        progress.end(1, build_error.empty() ? "built in " + seconds_text(b.wall.median_s) + " s" : build_error);
+      }
+
+      for (const auto& [pair, groups] : work) {
+        const Cloud& queries = data.queries.at(pair->query).points;
+        for (const auto& group : groups) {
+          std::string skip_reason = build_error;
+          for (std::size_t c = 0; c < group.cells.size(); ++c) {
+            const Cell& cell = group.cells[c];
+            if (sink.has(cell.name)) continue;
+            Record r = sweep_record(*pair, adapter, group, cell);
+            std::vector<Record> batch;
+            progress.begin(cell.name);
+            if (!skip_reason.empty()) {
+              r.skipped = skip_reason;
+              batch.push_back(std::move(r));
+              sink.add(batch);
+              progress.end(1, "skipped: " + skip_reason);
+              continue;
+            }
+            double slowest_s = 0.0;
+            try {
+              slowest_s = run_cell(*index, queries, group, cell, e, r);
+            } catch (const std::exception& ex) {
+              r.skipped = std::string("error: ") + ex.what();
+              progress.loud("ERROR " + cell.name + ": " + ex.what());
+            }
+            if (!agreement.check(r)) {
+              ++disagreements;
+              progress.loud("DISAGREEMENT " + cell.name + ": " + r.disagreement);
+            }
+            const std::string dist_text = cell.max_dist_m ? " at max_dist " + cell.dist_label : "";
+            if (r.skipped.empty() && slowest_s > e.budget_s) {
+              skip_reason = "over budget: " + seconds_text(slowest_s) + " s" + dist_text + " > " +
+                            seconds_text(e.budget_s) + " s";
+            } else if (!r.skipped.empty()) {  // errors repeat: say it once, skip the rest of the sweep
+              skip_reason = r.skipped + dist_text;
+            } else if (r.neighbours > e.neighbour_budget) {
+              skip_reason = "over neighbour budget: " + std::to_string(r.neighbours) + " neighbours" + dist_text +
+                            " > " + std::to_string(e.neighbour_budget);
+            }
+            const std::string outcome = r.skipped.empty() ? seconds_text(r.wall.median_s) + " s, found " +
+                                                                std::to_string(r.found)
+                                                          : r.skipped;
+            batch.push_back(std::move(r));
+            // The larger distances are recorded skipped in the same checkpoint as the cell that went over.
+            std::size_t skipped_now = 0;
+            if (!skip_reason.empty()) {
+              for (std::size_t later = c + 1; later < group.cells.size(); ++later) {
+                if (sink.has(group.cells[later].name)) continue;
+                Record s = sweep_record(*pair, adapter, group, group.cells[later]);
+                s.skipped = skip_reason;
+                batch.push_back(std::move(s));
+                ++skipped_now;
+              }
+              c = group.cells.size();
+            }
+            sink.add(batch);
+            progress.end(1, outcome);
+            if (skipped_now > 0) {
+              progress.begin(group.cells.back().name);
+              progress.end(skipped_now, "skipped " + std::to_string(skipped_now) + " cells: " + skip_reason);
+            }
+          }
+        }
+      }
+    }
+  }
+  return disagreements;
+}
+
+}  // namespace nnb::sweep

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The README's main command: install the dependencies, build Release, run the default experiment
+# (`quick`: the paper's Figure 3 pair with every adapter, plus construction costs) and regenerate the
+# figures and findings from its results.
+#   EXPERIMENT=paper scripts/run_main.sh   runs another experiment (bench/experiments/*.json)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+experiment="${EXPERIMENT:-quick}"
+./scripts/install_deps.sh
+cmake --preset release
+cmake --build --preset release -j "$(nproc 2>/dev/null || echo 2)"
+
+out="results/${experiment}.json"
+resume=()
+# A killed run of the same experiment resumes where it stopped; a finished one starts afresh.
+if [ -f "${out}.partial" ]; then resume=(--resume); fi
+build/release/bench/run_sweep --experiment "${experiment}" --out "${out}" "${resume[@]}"
+
+/usr/bin/python3 plots/make_figures.py "${out}" --out "results/figures/${experiment}"
+/usr/bin/python3 plots/findings.py "${out}" --out "results/figures/${experiment}/FINDINGS.md"
+echo "main: results in ${out}, figures and findings in results/figures/${experiment}/"

@@ -1,0 +1,237 @@
+#!/usr/bin/env python3
+"""Tests of run_sweep, run on tiny synthetic data: test_run_sweep.py RUN_SWEEP CASE WORKDIR.
+
+Cases: fields, resume, budget, bad_input, quick_tiny, agreement. Each exits non-zero with a message on failure.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+RUN_SWEEP, CASE, WORK = sys.argv[1], sys.argv[2], Path(sys.argv[3]) / sys.argv[2]
+TINY = ["--points", "300", "--dists", "0:0.3:0.1", "--repetitions", "2"]
+
+# Every record has these; sweep and build records add their own (see results/README.md).
+COMMON = {"name": str, "run_name": str, "run_type": str, "repetitions": int, "iterations": int, "threads": int,
+          "real_time": (int, float), "cpu_time": (int, float), "time_unit": str, "type": str, "model": str,
+          "adapter": str, "exact": bool, "median_s": (int, float), "mean_s": (int, float), "min_s": (int, float),
+          "stddev_s": (int, float), "cpu_median_s": (int, float)}
+SWEEP = {"query": str, "search": str, "strategy": str, "found": int, "neighbours": int, "dist_sum": (int, float)}
+BUILD = {"build_seconds": (int, float), "index_bytes": int, "n_points": int}
+CONTEXT = ["date", "host_name", "num_cpus", "mhz_per_cpu", "caches", "library_build_type", "compiler", "flags",
+           "build_type", "git_commit", "experiment", "config", "adapters", "datasets"]
+
+
+def fail(message):
+    print(f"FAIL [{CASE}]: {message}")
+    sys.exit(1)
+
+
+def check(condition, message):
+    if not condition:
+        fail(message)
+
+
+def run(args, env=None, expect=0):
+    full_env = dict(os.environ, **(env or {}))
+    proc = subprocess.run([RUN_SWEEP] + args, capture_output=True, text=True, env=full_env, timeout=900)
+    if expect is not None and proc.returncode != expect:
+        fail(f"{' '.join(args)} exited {proc.returncode}, expected {expect}\nstderr:\n{proc.stderr[-3000:]}")
+    return proc
+
+
+def load(path):
+    return json.loads(Path(path).read_text())
+
+
+def check_record_fields(rec):
+    name = rec.get("name", "?")
+    expected = dict(COMMON, **(SWEEP if rec.get("type") == "sweep" else BUILD))
+    for field, kind in expected.items():
+        check(field in rec, f"{name}: field '{field}' missing")
+        check(isinstance(rec[field], kind) and not (kind is int and isinstance(rec[field], bool)),
+              f"{name}: field '{field}' = {rec[field]!r} has the wrong type")
+    check(rec["time_unit"] == "s" and rec["run_type"] == "iteration", f"{name}: time_unit/run_type")
+    check(rec["real_time"] == rec["median_s"], f"{name}: real_time is not the median")
+    if "skipped" in rec:
+        check(rec.get("error_occurred") is True and rec["skipped"], f"{name}: skipped without a reason")
+    else:
+        check(rec["repetitions"] >= 1, f"{name}: ran with 0 repetitions")
+        check(rec["min_s"] <= rec["median_s"] <= max(rec["mean_s"], rec["median_s"]) or rec["repetitions"] > 2,
+              f"{name}: odd statistics")
+    if rec["type"] == "build":
+        check(name == f"build/{rec['model']}/{rec['adapter']}", f"{name}: build name")
+        return
+    check(rec["search"] in ("ranged", "knn", "radius"), f"{name}: search {rec['search']}")
+    check(rec["strategy"] in ("native", "via_knn", "via_radius", "via_box"), f"{name}: strategy")
+    if rec["search"] == "knn":
+        check("max_dist" not in rec and isinstance(rec.get("k"), int), f"{name}: knn has max_dist or no k")
+    else:
+        check(isinstance(rec.get("max_dist"), (int, float)), f"{name}: no max_dist")
+        check(name.endswith(f"max_dist:{rec['max_dist']:.2f}"), f"{name}: name does not end with its max_dist")
+    if rec["search"] == "radius":
+        check("k" not in rec, f"{name}: radius has k")
+    if rec["search"] == "ranged":
+        check(isinstance(rec.get("k"), int), f"{name}: ranged has no k")
+    if rec["exact"] and "skipped" not in rec:
+        check(isinstance(rec.get("agrees"), bool) and rec.get("checked_against"), f"{name}: no agreement check")
+
+
+def fresh_workdir():
+    shutil.rmtree(WORK, ignore_errors=True)
+    WORK.mkdir(parents=True)
+    return WORK
+
+
+def case_fields():
+    out = fresh_workdir() / "fields.json"
+    run(TINY + ["--adapters", "brute_force", "--out", str(out)])
+    doc = load(out)
+    for key in CONTEXT:
+        check(key in doc["context"], f"context field '{key}' missing")
+    check(doc["context"]["experiment"] == "quick", "context experiment")
+    check(doc["context"]["datasets"][0]["seed"] == 1, "data set seed missing")
+    check("brute_force" in doc["context"]["adapters"], "adapter info missing from context")
+    names = [r["name"] for r in doc["benchmarks"]]
+    check(len(names) == len(set(names)), "duplicate cell names")
+    # brute force offers all three kinds: 1 build + 4 ranged + 1 knn + 4 radius
+    check(len(names) == 10, f"expected 10 records, got {len(names)}: {names}")
+    for rec in doc["benchmarks"]:
+        check_record_fields(rec)
+    check("sweep/hollow_sphere/hollow_cube/brute_force/ranged/max_dist:0.20" in names, "ranged cell name")
+    check("sweep/hollow_sphere/hollow_cube/brute_force/knn/k:1" in names, "knn cell name")
+    by_name = {r["name"]: r for r in doc["benchmarks"]}
+    # at max_dist 0 the hollow cube and the hollow sphere share no point; found grows with the distance
+    found = [by_name[f"sweep/hollow_sphere/hollow_cube/brute_force/ranged/max_dist:{d}"]["found"]
+             for d in ("0.00", "0.10", "0.20", "0.30")]
+    check(found[0] == 0 and found == sorted(found) and found[-1] > 0, f"ranged found not growing: {found}")
+    check(by_name["sweep/hollow_sphere/hollow_cube/brute_force/knn/k:1"]["found"] == 300, "knn found != 300")
+
+
+def case_resume():
+    work = fresh_workdir()
+    data = ["--adapters", "brute_force", "--datasets", "hollow_sphere:hollow_cube,filled_cube"]
+    args = TINY + data
+    whole = work / "whole.json"
+    run(args + ["--out", str(whole)])
+    killed = work / "killed.json"
+    proc = run(args + ["--out", str(killed)], env={"NNB_SWEEP_ABORT_AFTER_CELLS": "7"}, expect=None)
+    check(proc.returncode == -9, f"the fault-injected run was not killed (exit {proc.returncode})")
+    partial = load(killed)
+    n_partial = len(partial["benchmarks"])
+    n_whole = len(load(whole)["benchmarks"])
+    check(7 <= n_partial < n_whole, f"killed run recorded {n_partial} of {n_whole} cells")
+    # a resume with another configuration is refused and leaves the file alone
+    before = killed.read_bytes()
+    other = ["--points", "300", "--dists", "0:0.3:0.1", "--repetitions", "3"]
+    refused = run(other + data + ["--out", str(killed), "--resume"], expect=2)
+    check("configuration" in refused.stderr, f"unclear refusal: {refused.stderr}")
+    check(killed.read_bytes() == before, "a refused resume changed the file")
+    run(args + ["--out", str(killed), "--resume"])
+    resumed = load(killed)
+    names_whole = sorted(r["name"] for r in load(whole)["benchmarks"])
+    names_resumed = sorted(r["name"] for r in resumed["benchmarks"])
+    check(names_whole == names_resumed, f"cells differ:\n{names_whole}\n{names_resumed}")
+    # the cells recorded before the kill were kept, not redone
+    kept = {r["name"]: r for r in resumed["benchmarks"]}
+    for rec in partial["benchmarks"]:
+        check(kept[rec["name"]] == rec, f"{rec['name']} was redone or changed on resume")
+    check(len(resumed["context"]["resumed"]) == 1, "resumption not noted in the context")
+    check(not list(work.glob("*.tmp")), "temporary files left behind")
+    # results agree between the two runs: same data, same exact answers
+    whole_by_name = {r["name"]: r for r in load(whole)["benchmarks"]}
+    for name, rec in kept.items():
+        if rec["type"] == "sweep":
+            check(rec["found"] == whole_by_name[name]["found"], f"{name}: found differs between runs")
+
+
+def case_budget():
+    work = fresh_workdir()
+    out = work / "budget.json"
+    run(TINY + ["--adapters", "brute_force", "--budget", "1e-9", "--out", str(out)])
+    recs = {r["name"]: r for r in load(out)["benchmarks"]}
+    for kind in ("ranged", "radius"):
+        first = recs[f"sweep/hollow_sphere/hollow_cube/brute_force/{kind}/max_dist:0.00"]
+        check("skipped" not in first and first["repetitions"] == 1,
+              f"{kind} at 0: should run once, then stop repeating: {first}")
+        for d in ("0.10", "0.20", "0.30"):
+            rec = recs[f"sweep/hollow_sphere/hollow_cube/brute_force/{kind}/max_dist:{d}"]
+            check(rec.get("skipped", "").startswith("over budget:") and "at max_dist 0.00" in rec["skipped"],
+                  f"{rec['name']}: not skipped for the budget: {rec.get('skipped')}")
+            check(rec["repetitions"] == 0, f"{rec['name']}: a skipped cell has repetitions")
+    check("skipped" not in recs["sweep/hollow_sphere/hollow_cube/brute_force/knn/k:1"], "knn skipped")
+    # a generous budget skips nothing
+    run(TINY + ["--adapters", "brute_force", "--budget", "100", "--out", str(work / "none.json")])
+    check(not any("skipped" in r for r in load(work / "none.json")["benchmarks"]), "skipped under a large budget")
+    # the neighbour budget, from an experiment file: radius stops after the first cell over 50 neighbours
+    experiment = work / "neighbours.json"
+    experiment.write_text(json.dumps({"name": "nb", "pairs": [{"model": "filled_cube", "query": "filled_cube"}],
+                                      "adapters": ["brute_force"], "searches": ["radius"], "dists": "0:0.5:0.1",
+                                      "repetitions": 1, "neighbour_budget": 400, "synthetic_points": 200}))
+    run(["--experiment", str(experiment), "--out", str(work / "nb.json")])
+    recs = [r for r in load(work / "nb.json")["benchmarks"] if r["type"] == "sweep"]
+    ran = [r for r in recs if "skipped" not in r]
+    check(len(recs) == 6 and 1 <= len(ran) < 6, f"neighbour budget: {len(ran)} of {len(recs)} cells ran")
+    check(ran[-1]["neighbours"] > 400 and all(r["neighbours"] <= 400 for r in ran[:-1]),
+          "neighbour budget stopped at the wrong cell")
+    check(all(r["skipped"].startswith("over neighbour budget") for r in recs[len(ran):]), "neighbour skip reason")
+
+
+def case_bad_input():
+    work = fresh_workdir()
+    bad_json = work / "bad.json"
+    bad_json.write_text("{ not json")
+    cases = [["--adapters", "no_such_adapter"], ["--datasets", "no_such_data_set"], ["--dists", "0:1:0"],
+             ["--dists", "0:1:-0.02"], ["--dists", "-0.1:1:0.02"], ["--dists", "0:1"], ["--dists", "a:b:c"],
+             ["--experiment", str(work / "missing.json")], ["--experiment", str(bad_json)],
+             ["--repetitions", "0"], ["--budget", "0"], ["--no-such-flag"]]
+    for i, extra in enumerate(cases):
+        out = work / f"out{i}.json"
+        proc = run(TINY + extra + ["--out", str(out)], expect=2)
+        lines = [l for l in proc.stderr.splitlines() if l.strip() and "WARNING" not in l]
+        check(lines, f"{extra}: no message")
+        check(not out.exists(), f"{extra}: wrote a results file")
+    check(sorted(p.name for p in work.iterdir()) == ["bad.json"], "bad input left files behind")
+
+
+def case_quick_tiny():
+    work = fresh_workdir()
+    out = work / "quick.json"
+    run(["--experiment", "quick", "--points", "500", "--out", str(out)])
+    doc = load(out)
+    adapters = doc["context"]["adapters"]
+    recs = doc["benchmarks"]
+    for rec in recs:
+        check_record_fields(rec)
+    check(len(doc["context"]["config"]["adapters"]) == len(adapters), "not every adapter")
+    for name, info in adapters.items():
+        kinds = [r["search"] for r in recs if r["adapter"] == name and r["type"] == "sweep"]
+        check(kinds.count("ranged") == 51, f"{name}: {kinds.count('ranged')} ranged cells, expected 51")
+        for kind in ("knn", "radius"):
+            offered = info[kind] in ("native", "via_box")
+            expected = (1 if kind == "knn" else 51) if offered else 0
+            check(kinds.count(kind) == expected, f"{name}: {kinds.count(kind)} {kind} cells, expected {expected}")
+        check(any(r["type"] == "build" and r["adapter"] == name for r in recs), f"{name}: no build record")
+    print(f"{sum(r.get('agrees') is False for r in recs)} disagreements (asserted by the agreement case)")
+
+
+def case_agreement():
+    """Every exact adapter finds what brute force finds, in every cell of the quick experiment."""
+    work = fresh_workdir()
+    out = work / "quick.json"
+    run(["--experiment", "quick", "--points", "500", "--out", str(out)])
+    recs = load(out)["benchmarks"]
+    disagreements = [f"{r['name']}: {r['disagreement']}" for r in recs if r.get("agrees") is False]
+    check(not disagreements, f"{len(disagreements)} cells where exact adapters disagree:\n" + "\n".join(disagreements))
+    errors = [f"{r['name']}: {r['skipped']}" for r in recs if r.get("skipped", "").startswith("error")]
+    check(not errors, "adapters failed:\n" + "\n".join(errors))
+
+
+CASES = {"fields": case_fields, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
+         "quick_tiny": case_quick_tiny, "agreement": case_agreement}
+
+if __name__ == "__main__":
+    CASES[CASE]()
+    print(f"ok [{CASE}]")
