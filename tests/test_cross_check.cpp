@@ -2,6 +2,8 @@
 // queries on, near and far from the model, at distances that include 0, an existing distance and one
 // larger than the cloud; then the edge cases by name.
 #include "cross_check.hpp"
+#include "nnb/datasets/catalog.hpp"
+#include "nnb/datasets/manifest.hpp"
 #include "nnb/datasets/synthetic.hpp"
 
 #include <random>
@@ -104,6 +106,29 @@ TEST_P(CrossCheck, ModelAndQueriesOfDifferentShapes) {
   // The paper's Figure 3 pair: hollow cube queries against a hollow sphere model.
   check_all(make_shape(Shape::hollow_sphere, 3000, 2), make_shape(Shape::hollow_cube, 450, 3),
             "hollow_cube->hollow_sphere");
+}
+
+// Every other point of a cloud, keeping about `count` of them spread over the whole scan.
+Cloud subsample(const Cloud& cloud, Eigen::Index count) {
+  const Eigen::Index stride = std::max<Eigen::Index>(1, cloud.cols() / count);
+  Cloud out(3, (cloud.cols() + stride - 1) / stride);
+  for (Eigen::Index i = 0; i < out.cols(); ++i) out.col(i) = cloud.col(i * stride);
+  return out;
+}
+
+TEST_P(CrossCheck, SharedRealScans) {
+  // The real pairs, subsampled so the suite stays fast: the pair's query scan at its pose (near and far
+  // from the model, as in registration) followed by model points (queries exactly on points).
+  const nnb::datasets::DataOptions options;
+  for (const auto& pair : nnb::datasets::real_pairs()) {
+    const auto model = nnb::datasets::resolve_cloud(pair.name, nnb::datasets::Role::model, options);
+    const auto query = nnb::datasets::resolve_cloud(pair.name, nnb::datasets::Role::query, options);
+    const Cloud model_points = subsample(model.points, 3000);
+    const Cloud near_far = subsample(query.points, 300);
+    Cloud queries(3, near_far.cols() + 100);
+    queries << near_far, model_points.leftCols(100);
+    check_all(model_points, queries, pair.name);
+  }
 }
 
 std::vector<Case> all_cases() {
