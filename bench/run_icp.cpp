@@ -224,7 +224,7 @@ int main(int argc, char** argv) {
     s.max_dist.start_m = 0.25;
     ds::DataOptions data;
     app.add_option("--experiment", experiment, "run an ICP experiment: a name in bench/experiments or a file");
-    app.add_option("--adapter", adapter, "nearest-neighbour adapter (see nns_query --list-adapters)");
+    app.add_option("--adapter", adapter, "nearest-neighbour adapter (see nns_query --list)");
     app.add_option("--param", param_words, "adapter parameter NAME=VALUE (repeatable)");
     app.add_option("--model", model_spec, "model cloud: shape name, real pair name or file");
     app.add_option("--query", query_spec, "query cloud: shape, real pair (its raw query scan + initial pose) or file");

@@ -27,6 +27,7 @@ struct Flags {
   std::optional<int> repetitions;
   std::optional<double> budget_s;
   std::optional<std::size_t> points;
+  std::optional<double> memory_limit_gib;
   bool resume = false;
 };
 
@@ -41,6 +42,7 @@ Experiment configure(const Flags& flags, const std::vector<std::string>& all_ada
   if (flags.repetitions) e.repetitions = *flags.repetitions;
   if (flags.budget_s) e.budget_s = *flags.budget_s;
   if (flags.points) e.synthetic_points = *flags.points;
+  if (flags.memory_limit_gib) e.memory_limit_gib = *flags.memory_limit_gib;
   validate(e, all_adapters);
   return e;
 }
@@ -58,6 +60,8 @@ int main(int argc, char** argv) {
   app.add_option("--repetitions", flags.repetitions, "timed calls per cell");
   app.add_option("--budget", flags.budget_s, "seconds per call above which larger distances are skipped");
   app.add_option("--points", flags.points, "points per synthetic data set (the paper: 60000)");
+  app.add_option("--memory-limit-gib", flags.memory_limit_gib,
+                 "memory per build (index or peak RSS growth) above which larger models are skipped (default 8)");
   app.add_option("--out", flags.out, "results file (default: results/sweep_<experiment>.json in the source tree)");
   app.add_flag("--resume", flags.resume, "finish the cells missing from --out (same configuration only)");
   try {
@@ -97,7 +101,9 @@ int main(int argc, char** argv) {
     std::cerr << "run_sweep: experiment '" << experiment.name << "': " << planned.size() << " cells ("
               << already << " already in " << out << "), " << adapters.size() << " adapters, "
               << experiment.pairs.size() << " model/query pairs, " << experiment.dists.values().size()
-              << " distances, " << experiment.repetitions << " repetitions, budget " << experiment.budget_s << " s\n";
+              << " distances, " << experiment.repetitions << " repetitions, budget " << experiment.budget_s << " s"
+              << (experiment.skip_larger_models ? " (also for larger models)" : "") << ", memory limit "
+              << experiment.memory_limit_gib << " GiB\n";
 
     Progress progress(planned.size(), already, isatty(STDERR_FILENO) != 0);
     const std::size_t disagreements =

@@ -8,6 +8,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fig_build  # noqa: E402
 import fig_icp  # noqa: E402
+import fig_scale  # noqa: E402
 import fig_sweep  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
@@ -37,6 +38,7 @@ def main(argv=None):
     fig_icp.fig5(results, args.out)
     fig_sweep.grid(results, args.out, best=False)
     fig_sweep.grid(results, args.out, best=True)
+    fig_scale.fig8(results, args.out)
     return 0
 
 

@@ -12,8 +12,10 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 SHAPES = ("hollow_cube", "filled_cube", "hollow_sphere", "filled_sphere")
 UNIT_SECONDS = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}
 
-# seconds is None for a skipped cell; max_dist_m is None for k-NN (it does not depend on the distance).
-SweepCell = namedtuple("SweepCell", "model query adapter search strategy max_dist_m k seconds skipped found agrees")
+# seconds is None for a skipped cell; max_dist_m is None for k-NN (it does not depend on the distance);
+# n_points / n_queries: model and query sizes (record fields, else context.datasets; None when unknown).
+SweepCell = namedtuple("SweepCell", "model query adapter search strategy max_dist_m k seconds skipped found agrees "
+                                    "n_points n_queries", defaults=(None, None))
 Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points")
 IcpRun = namedtuple("IcpRun", "experiment pair adapter search bucket_size icp_seconds build_seconds nns_seconds "
                               "iterations converged")
@@ -88,7 +90,7 @@ def _name_parts(rec):
     return str(rec.get("name", "")).split("/")
 
 
-def _read_sweep(results, rec):
+def _read_sweep(results, rec, sizes=None):
     parts = _name_parts(rec)
     model = rec.get("model") or (parts[1] if len(parts) > 1 else None)
     query = rec.get("query") or (parts[2] if len(parts) > 2 else None)
@@ -107,9 +109,13 @@ def _read_sweep(results, rec):
         warn(f"{rec.get('name')}: {search} cell without max_dist: ignored")
         return
     k = _number(rec.get("k"))
+    sizes = sizes or {}
+    n_points = _number(rec.get("n_points")) or sizes.get((model, "model"))
+    n_queries = _number(rec.get("n_queries")) or sizes.get((query, "query"))
     results.sweep.append(SweepCell(model, query, adapter, search, rec.get("strategy") or "?",
                                    max_dist, k, seconds, skipped, _number(rec.get("found")),
-                                   rec.get("agrees") if isinstance(rec.get("agrees"), bool) else None))
+                                   rec.get("agrees") if isinstance(rec.get("agrees"), bool) else None,
+                                   n_points, n_queries))
     results._note_adapter(rec)
 
 
@@ -176,6 +182,8 @@ def load(paths):
         for name, info in (context.get("adapters") or {}).items():
             if isinstance(info, dict):
                 results.adapters.setdefault(name, {}).update({k: v for k, v in info.items() if v is not None})
+        sizes = {(d.get("spec"), d.get("role")): _number(d.get("points"))
+                 for d in (context.get("datasets") or []) if isinstance(d, dict)}
         for rec in doc["benchmarks"]:
             if not isinstance(rec, dict):
                 continue
@@ -183,7 +191,7 @@ def load(paths):
                 continue
             kind = _kind(rec)
             if kind == "sweep":
-                _read_sweep(results, rec)
+                _read_sweep(results, rec, sizes)
             elif kind == "build":
                 _read_build(results, rec)
             elif kind == "icp":

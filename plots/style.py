@@ -21,6 +21,7 @@ ADAPTER_STYLE = {
     "spatialindex_quadratic": ("#c51b7d", "p"),
     "pcl_kdtree": ("#bcbd22", "<"),
     "pcl_octree": ("#17becf", ">"),
+    "pcl_octree_approx": ("#9edae5", ">"),
     "open3d_kdtree": ("#393b79", "h"),
     "brute_force": ("#7f7f7f", "."),
 }

@@ -3,6 +3,7 @@
 # (`quick`: the paper's Figure 3 pair with every adapter, plus construction costs) and regenerate the
 # figures and findings from its results.
 #   EXPERIMENT=paper scripts/run_main.sh   runs another experiment (bench/experiments/*.json)
+#   RESUME=1 scripts/run_main.sh           finishes a killed run instead of starting afresh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 experiment="${EXPERIMENT:-quick}"
@@ -10,10 +11,9 @@ experiment="${EXPERIMENT:-quick}"
 cmake --preset release
 cmake --build --preset release -j "$(nproc 2>/dev/null || echo 2)"
 
-out="results/${experiment}.json"
+out="results/sweep_${experiment}.json"
 resume=()
-# A killed run of the same experiment resumes where it stopped; a finished one starts afresh.
-if [ -f "${out}.partial" ]; then resume=(--resume); fi
+if [ "${RESUME:-0}" = 1 ] && [ -f "${out}" ]; then resume=(--resume); fi
 build/release/bench/run_sweep --experiment "${experiment}" --out "${out}" "${resume[@]}"
 
 /usr/bin/python3 plots/make_figures.py "${out}" --out "results/figures/${experiment}"

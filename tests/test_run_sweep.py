@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """Tests of run_sweep, run on tiny synthetic data: test_run_sweep.py RUN_SWEEP CASE WORKDIR.
 
-Cases: fields, resume, budget, bad_input, quick_tiny, agreement. Each exits non-zero with a message on failure.
+Cases: fields, resume, budget, bad_input, quick_tiny, agreement, scale_memory, scale_budget. Each exits non-zero
+with a message on failure.
 """
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -229,8 +231,145 @@ def case_agreement():
     check(not errors, "adapters failed:\n" + "\n".join(errors))
 
 
+# The scale experiment on its two smallest model sizes, queries = the smallest query scan (fast).
+SCALE_SMALL = ["--experiment", "scale", "--datasets", "city-tls-15k:city-tls-15k,city-tls-60k:city-tls-15k",
+               "--repetitions", "1"]
+SMALL, LARGER = "city-tls-15k", "city-tls-60k"
+GIB = 1024.0 ** 3
+
+
+def by_model_adapter(recs):
+    """{(model, adapter): (build record, [sweep records])}."""
+    table = {}
+    for rec in recs:
+        entry = table.setdefault((rec["model"], rec["adapter"]), [None, []])
+        if rec["type"] == "build":
+            entry[0] = rec
+        else:
+            entry[1].append(rec)
+    return table
+
+
+def check_scale_fields(doc):
+    for rec in doc["benchmarks"]:
+        check_record_fields(rec)
+        check(isinstance(rec.get("n_points"), int) and rec["n_points"] > 0, f"{rec['name']}: no n_points")
+        if rec["type"] == "build":
+            check(isinstance(rec.get("index_bytes_per_point"), (int, float)), f"{rec['name']}: no bytes per point")
+            check(isinstance(rec.get("build_peak_rss_bytes"), int), f"{rec['name']}: no build_peak_rss_bytes")
+            if rec["n_points"]:
+                check(abs(rec["index_bytes_per_point"] - rec["index_bytes"] / rec["n_points"]) < 1e-9,
+                      f"{rec['name']}: index_bytes_per_point != index_bytes / n_points")
+        else:
+            check(isinstance(rec.get("n_queries"), int) and rec["n_queries"] > 0, f"{rec['name']}: no n_queries")
+            if "skipped" in rec:
+                check("seconds_per_query" not in rec, f"{rec['name']}: a skipped cell has seconds_per_query")
+            else:
+                check(abs(rec["seconds_per_query"] * rec["n_queries"] - rec["median_s"]) <= 1e-12 + 1e-9 * rec["median_s"],
+                      f"{rec['name']}: seconds_per_query != median_s / n_queries")
+    n = {d["spec"]: d["points"] for d in doc["context"]["datasets"] if d["role"] == "model"}
+    check(n[SMALL] < n[LARGER], f"model sizes not increasing: {n}")
+    for rec in doc["benchmarks"]:
+        check(rec["n_points"] == n[rec["model"]], f"{rec['name']}: n_points {rec['n_points']} != {n[rec['model']]}")
+
+
+def case_scale_memory():
+    """A memory limit skips an adapter on the larger models, with the reason; the run ends normally."""
+    work = fresh_workdir()
+    adapters = ["--adapters", "brute_force,nanoflann_kdtree,ann_kdtree"]
+    # A tiny limit: every adapter whose build takes memory is over it at the first size already.
+    out = work / "tiny_limit.json"
+    proc = run(SCALE_SMALL + adapters + ["--memory-limit-gib", "0.000001", "--out", str(out)])
+    doc = load(out)
+    check(doc["context"]["config"]["memory_limit_gib"] == 0.000001, "memory limit not in the config")
+    check_scale_fields(doc)
+    table = by_model_adapter(doc["benchmarks"])
+    check(len(table) == 6 and all(b and len(cells) == 1 for b, cells in table.values()), "missing records")
+    for adapter in ("nanoflann_kdtree", "ann_kdtree"):
+        build, cells = table[(SMALL, adapter)]
+        check("skipped" not in build and "skipped" not in cells[0], f"{adapter}: did not run at the first size")
+        check(build["index_bytes"] > 0.000001 * GIB, f"{adapter}: index of {build['index_bytes']} B under 1 kB?")
+        check(build.get("skips_larger_models", "").startswith("over memory limit:"),
+              f"{adapter}: first build over the limit does not close larger models: {build.get('skips_larger_models')}")
+        build, cells = table[(LARGER, adapter)]
+        for rec in [build] + cells:
+            check("points and more: over memory limit" in rec.get("skipped", ""),
+                  f"{rec['name']}: not skipped for memory: {rec.get('skipped')}")
+            check(rec["repetitions"] == 0, f"{rec['name']}: skipped but timed")
+    # brute force holds no index: it runs unless the RSS it grew while building was over the limit
+    for model in (SMALL, LARGER):
+        build, _ = table[(model, "brute_force")]
+        check("skipped" not in build or "over memory limit" in build["skipped"], f"brute force: {build}")
+    check("larger models will be skipped: over memory limit" in proc.stderr, "no message about the memory skip")
+
+    # A limit between the first index and the second one's extrapolation: skipped before building, by estimate.
+    first = table[(SMALL, "nanoflann_kdtree")][0]
+    per_point = max(first["index_bytes"], first["build_peak_rss_bytes"]) / first["n_points"]
+    n_larger = table[(LARGER, "nanoflann_kdtree")][0]["n_points"]
+    limit_gib = per_point * (first["n_points"] + n_larger) / 2 / GIB
+    out = work / "estimate.json"
+    run(SCALE_SMALL + ["--adapters", "nanoflann_kdtree", "--memory-limit-gib", repr(limit_gib), "--out", str(out)])
+    table = by_model_adapter(load(out)["benchmarks"])
+    build, cells = table[(SMALL, "nanoflann_kdtree")]
+    check("skipped" not in build and "skipped" not in cells[0], "under the limit at the first size, yet skipped")
+    if "skips_larger_models" not in build:  # its RSS growth may differ from the first run's; then it closes instead
+        build, cells = table[(LARGER, "nanoflann_kdtree")]
+        for rec in [build] + cells:
+            check(rec.get("skipped", "").startswith("over memory limit: estimated"),
+                  f"{rec['name']}: not skipped by the estimate: {rec.get('skipped')}")
+    # no limit worth the name: nothing skipped
+    out = work / "no_limit.json"
+    run(SCALE_SMALL + adapters + ["--memory-limit-gib", "8", "--out", str(out)])
+    check(not any("skipped" in r for r in load(out)["benchmarks"]), "skipped under an 8 GiB limit")
+    for bad in ("0", "-1", "nan", "x"):
+        run(SCALE_SMALL + adapters + ["--memory-limit-gib", bad, "--out", str(work / "bad.json")], expect=2)
+    check(not (work / "bad.json").exists(), "a bad memory limit wrote a file")
+
+
+def case_scale_budget():
+    """Over the time budget at one model size: the adapter is skipped at every larger size, also on resume."""
+    work = fresh_workdir()
+    args = SCALE_SMALL + ["--adapters", "brute_force,nanoflann_kdtree"]
+    out = work / "budget.json"
+    run(args + ["--budget", "1e-9", "--out", str(out)])
+    doc = load(out)
+    check(doc["context"]["config"]["skip_larger_models"] is True, "scale experiment without skip_larger_models")
+    check_scale_fields(doc)
+    table = by_model_adapter(doc["benchmarks"])
+    for adapter in ("brute_force", "nanoflann_kdtree"):
+        build, cells = table[(SMALL, adapter)]
+        check("skipped" not in build and "skipped" not in cells[0], f"{adapter}: skipped at the first size")
+        check(build.get("skips_larger_models", "").startswith("over budget: build"),
+              f"{adapter}: build over a 1 ns budget does not close larger models: {build}")
+        build, cells = table[(LARGER, adapter)]
+        for rec in [build] + cells:
+            check(f"skipped on models of {table[(SMALL, adapter)][0]['n_points']} points and more: over budget"
+                  in rec.get("skipped", ""), f"{rec['name']}: not skipped for the budget: {rec.get('skipped')}")
+    # killed after the first size, resumed: the closure is read back from the file
+    killed = work / "killed.json"
+    proc = run(args + ["--budget", "1e-9", "--out", str(killed)], env={"NNB_SWEEP_ABORT_AFTER_CELLS": "4"},
+               expect=None)
+    check(proc.returncode == -9, f"the fault-injected run was not killed (exit {proc.returncode})")
+    check(len(load(killed)["benchmarks"]) == 4, "the killed run did not stop after the first size")
+    run(args + ["--budget", "1e-9", "--out", str(killed), "--resume"])
+    # the reasons quote measured times: compare them with the times blanked out
+    skips = lambda path: {r["name"]: re.sub(r"[0-9.e+-]+ s\b", "T s", r.get("skipped", ""))
+                          for r in load(path)["benchmarks"]}
+    check(skips(killed) == skips(out), f"resumed run skips differently:\n{skips(killed)}\n{skips(out)}")
+    # a generous budget closes nothing
+    out = work / "generous.json"
+    run(args + ["--budget", "100", "--out", str(out)])
+    recs = load(out)["benchmarks"]
+    check(not any("skipped" in r or "skips_larger_models" in r for r in recs), "skipped under a 100 s budget")
+    by_name = {r["name"]: r for r in recs}
+    for model in (SMALL, LARGER):
+        cell = by_name[f"sweep/{model}/city-tls-15k/nanoflann_kdtree/ranged/max_dist:0.10"]
+        check(cell.get("agrees") is True and cell["found"] > 0, f"{cell['name']}: {cell}")
+
+
 CASES = {"fields": case_fields, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
-         "quick_tiny": case_quick_tiny, "agreement": case_agreement}
+         "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
+         "scale_budget": case_scale_budget}
 
 if __name__ == "__main__":
     CASES[CASE]()

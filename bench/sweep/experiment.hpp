@@ -41,6 +41,8 @@ struct Experiment {
   std::size_t neighbour_budget = 20'000'000;  ///< per cell: more neighbours than this stops larger distances
   std::size_t synthetic_points = 60000;
   std::uint64_t seed = 1;
+  double memory_limit_gib = 8.0;    ///< per build; see size_gate.hpp
+  bool skip_larger_models = false;  ///< the time budget also skips the adapter on models at least as large
 };
 
 /// The experiment file for a name (experiments_dir/NAME.json) or a path; throws InputError if unreadable.

@@ -38,7 +38,10 @@ struct Record {
   std::string checked_against; ///< the reference adapter of that comparison
   std::string disagreement;    ///< what differed, when agrees is false
   std::size_t index_bytes = 0; ///< build only
-  std::size_t n_points = 0;    ///< build only: points in the model
+  std::size_t build_peak_rss_bytes = 0;  ///< build only: peak RSS growth of the process while building
+  std::size_t n_points = 0;    ///< points in the model
+  std::size_t n_queries = 0;   ///< sweep only: points in the query cloud
+  std::string skips_larger;    ///< why this adapter is skipped on models at least as large (set on the cause)
 };
 
 }  // namespace nnb::sweep

@@ -45,6 +45,8 @@ ordered_json config_of(const RunDescription& run) {
   c["neighbour_budget"] = e.neighbour_budget;
   c["synthetic_points"] = e.synthetic_points;
   c["seed"] = e.seed;
+  c["memory_limit_gib"] = e.memory_limit_gib;
+  c["skip_larger_models"] = e.skip_larger_models;
   c["build_type"] = run.build.build_type;
   c["release"] = run.build.release();
   return c;
@@ -136,11 +138,19 @@ ordered_json to_json(const Record& r) {
   }
   put_stats(j, "", r.wall);
   put_stats(j, "cpu_", r.cpu);
+  j["n_points"] = r.n_points;
+  if (!r.skips_larger.empty()) j["skips_larger_models"] = r.skips_larger;
   if (r.type == Record::Type::build) {
     j["build_seconds"] = r.wall.median_s;
     j["index_bytes"] = r.index_bytes;
-    j["n_points"] = r.n_points;
+    j["index_bytes_per_point"] =
+        r.n_points > 0 ? static_cast<double>(r.index_bytes) / static_cast<double>(r.n_points) : 0.0;
+    j["build_peak_rss_bytes"] = r.build_peak_rss_bytes;
     return j;
+  }
+  j["n_queries"] = r.n_queries;
+  if (r.skipped.empty() && r.n_queries > 0) {
+    j["seconds_per_query"] = r.wall.median_s / static_cast<double>(r.n_queries);
   }
   j["search"] = r.search;
   j["strategy"] = r.strategy;
@@ -173,11 +183,15 @@ Record from_json(const json& j) {
   r.wall = get_stats(j, "");
   r.cpu = get_stats(j, "cpu_");
   if (j.contains("skipped")) r.skipped = j["skipped"].get<std::string>();
+  r.n_points = j.value("n_points", std::size_t{0});  // sweep records of older files lack it
+  r.skips_larger = j.value("skips_larger_models", std::string());
   if (r.type == Record::Type::build) {
     r.index_bytes = j.at("index_bytes").get<std::size_t>();
     r.n_points = j.at("n_points").get<std::size_t>();
+    r.build_peak_rss_bytes = j.value("build_peak_rss_bytes", std::size_t{0});
     return r;
   }
+  r.n_queries = j.value("n_queries", std::size_t{0});
   r.query = j.at("query").get<std::string>();
   r.search = j.at("search").get<std::string>();
   r.strategy = j.at("strategy").get<std::string>();

@@ -1,5 +1,8 @@
 #include "runner.hpp"
 
+#include "memory.hpp"
+#include "size_gate.hpp"
+
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -8,6 +11,7 @@
 #include <cstdio>
 #include <ctime>
 #include <iomanip>
+#include <new>
 #include <numeric>
 #include <sstream>
 
@@ -147,12 +151,15 @@ class Agreement {
   std::map<std::string, Record> reference_;
 };
 
-Record sweep_record(const DataPair& pair, const PlannedAdapter& adapter, const Group& group, const Cell& cell) {
+Record sweep_record(const DataPair& pair, const PlannedAdapter& adapter, const Group& group, const Cell& cell,
+                    const LoadedData& data) {
   Record r;
   r.type = Record::Type::sweep;
   r.name = cell.name;
   r.model = pair.model;
   r.query = pair.query;
+  r.n_points = static_cast<std::size_t>(data.models.at(pair.model).points.cols());
+  r.n_queries = static_cast<std::size_t>(data.queries.at(pair.query).points.cols());
   r.adapter = adapter.name;
   r.exact = adapter.info.exact;
   r.search = to_string(group.kind);
@@ -246,7 +253,11 @@ std::vector<std::string> planned_cells(const Experiment& e, const std::vector<Pl
 std::size_t run_experiment(const Experiment& e, const LoadedData& data, const std::vector<PlannedAdapter>& adapters,
                            const std::vector<Record>& previous, ResultsSink& sink, Progress& progress) {
   Agreement agreement;
-  for (const auto& r : previous) agreement.remember(r);
+  SizeGate gate(e.memory_limit_gib * 1024.0 * 1024.0 * 1024.0, e.skip_larger_models, e.budget_s);
+  for (const auto& r : previous) {
+    agreement.remember(r);
+    gate.observe(r);
+  }
   std::size_t disagreements = 0;
 
   for (const auto& model_spec : distinct_models(e)) {
@@ -269,7 +280,6 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
       }
       if (to_do == 0) continue;
 
-      // Construction: a fresh index per repetition; the last one answers the queries.
       progress.begin(build);
       Record b;
       b.type = Record::Type::build;
@@ -278,10 +288,34 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
       b.adapter = adapter.name;
       b.exact = adapter.info.exact;
       b.n_points = static_cast<std::size_t>(model.points.cols());
+
+      // Over the memory limit or closed by a smaller model: the build and all its cells are recorded skipped.
+      if (const std::string gated = gate.reason_to_skip(adapter.name, model_spec, b.n_points); !gated.empty()) {
+        std::vector<Record> batch;
+        b.skipped = gated;
+        if (!sink.has(build)) batch.push_back(b);
+        for (const auto& [pair, groups] : work) {
+          for (const auto& group : groups) {
+            for (const auto& cell : group.cells) {
+              if (sink.has(cell.name)) continue;
+              batch.push_back(sweep_record(*pair, adapter, group, cell, data));
+              batch.back().skipped = gated;
+            }
+          }
+        }
+        sink.add(batch);
+        progress.end(batch.size(), "skipped " + std::to_string(batch.size()) + " cells: " + gated);
+        continue;
+      }
+
+      // Construction: a fresh index per repetition; the last one answers the queries.
       std::unique_ptr<SearchIndex> index;
       std::string build_error;
+      double slowest_build_s = 0.0;
       try {
         std::vector<double> wall, cpu;
+        const bool peak_resets = reset_peak_rss();
+        const std::size_t rss_before = current_rss_bytes();
         for (int rep = 0; rep < e.build_repetitions; ++rep) {
           index.reset();
           auto fresh = make_adapter(adapter.name);
@@ -292,17 +326,30 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
           cpu.push_back(cpu_now_s() - cpu0);
           wall.push_back(std::chrono::duration<double>(t1 - t0).count());
           index = std::move(fresh);
+          if (e.skip_larger_models && wall.back() > e.budget_s) break;
         }
+        // Without a resettable peak, the growth of the RSS the finished index holds.
+        const std::size_t rss_after = peak_resets ? peak_rss_bytes() : current_rss_bytes();
+        b.build_peak_rss_bytes = rss_after > rss_before ? rss_after - rss_before : 0;
+        slowest_build_s = *std::max_element(wall.begin(), wall.end());
         b.repetitions = static_cast<int>(wall.size());
         b.wall = stats_of(wall);
         b.cpu = stats_of(cpu);
         b.index_bytes = index->index_bytes();
+      } catch (const std::bad_alloc&) {
+        build_error = "out of memory: std::bad_alloc building on " + std::to_string(b.n_points) + " points";
+        b.skipped = build_error;
+        index.reset();
+        progress.loud("ERROR " + build + ": " + build_error);
       } catch (const std::exception& ex) {
         build_error = std::string("error: build failed: ") + ex.what();
         b.skipped = build_error;
         index.reset();
         progress.loud("ERROR " + build + ": " + ex.what());
       }
+      gate.judge_build(b, slowest_build_s);
+      gate.observe(b);
+      if (!b.skips_larger.empty()) progress.loud(adapter.name + ": larger models will be skipped: " + b.skips_larger);
       if (!sink.has(build)) {
         sink.add({b});
         progress.end(1, build_error.empty() ? "built in " + seconds_text(b.wall.median_s) + " s" : build_error);
@@ -315,7 +362,7 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
           for (std::size_t c = 0; c < group.cells.size(); ++c) {
             const Cell& cell = group.cells[c];
             if (sink.has(cell.name)) continue;
-            Record r = sweep_record(*pair, adapter, group, cell);
+            Record r = sweep_record(*pair, adapter, group, cell, data);
             std::vector<Record> batch;
             progress.begin(cell.name);
             if (!skip_reason.empty()) {
@@ -328,9 +375,17 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
             double slowest_s = 0.0;
             try {
               slowest_s = run_cell(*index, queries, group, cell, e, r);
+            } catch (const std::bad_alloc&) {
+              r.skipped = "out of memory: std::bad_alloc";
+              progress.loud("ERROR " + cell.name + ": " + r.skipped);
             } catch (const std::exception& ex) {
               r.skipped = std::string("error: ") + ex.what();
               progress.loud("ERROR " + cell.name + ": " + ex.what());
+            }
+            gate.judge_cell(r, slowest_s);
+            gate.observe(r);
+            if (!r.skips_larger.empty()) {
+              progress.loud(adapter.name + ": larger models will be skipped: " + r.skips_larger);
             }
             if (!agreement.check(r)) {
               ++disagreements;
@@ -355,7 +410,7 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
             if (!skip_reason.empty()) {
               for (std::size_t later = c + 1; later < group.cells.size(); ++later) {
                 if (sink.has(group.cells[later].name)) continue;
-                Record s = sweep_record(*pair, adapter, group, group.cells[later]);
+                Record s = sweep_record(*pair, adapter, group, group.cells[later], data);
                 s.skipped = skip_reason;
                 batch.push_back(std::move(s));
                 ++skipped_now;

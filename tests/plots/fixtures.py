@@ -127,3 +127,35 @@ def write_all(directory, speed=None, build_s=None, index_bytes=None, best_bucket
     return [write(directory / "sweep.json", "paper", sweep_records(speed, kind_factor=kind_factor) + build_records(build_s, index_bytes)),
             write(directory / "icp_bucket.json", "icp_bucket", icp_bucket_records(best_bucket)),
             write(directory / "icp_real.json", "icp_real", icp_real_records())]
+
+
+# The scale experiment: one query set against model sizes x4 apart; exact power laws with these exponents.
+SCALE_SIZES = [15712 * 4 ** i for i in range(6)]
+SCALE_QUERIES = 62721
+SCALE_LAWS = {  # adapter: (query exponent, build exponent, sizes run)
+    "nanoflann_kdtree": (0.2, 1.1, 6),
+    "flann_kdtree": (0.3, 1.0, 6),
+    "brute_force": (1.0, 0.5, 3),  # over budget at the third size: the larger ones are skipped
+}
+
+
+def scale_records():
+    """Sweep and build records of a scale run (models city-N, query city-q), times following SCALE_LAWS."""
+    records = []
+    for i, n in enumerate(SCALE_SIZES):
+        model = f"city-{n}"
+        for adapter, (q_exp, b_exp, sizes_run) in SCALE_LAWS.items():
+            per_query = 1e-7 * (n / SCALE_SIZES[0]) ** q_exp
+            build_s = 1e-3 * (n / SCALE_SIZES[0]) ** b_exp
+            cell = {"name": f"sweep/{model}/city-q/{adapter}/ranged/max_dist:0.10", "model": model, "query": "city-q",
+                    "adapter": adapter, "search": "ranged", "strategy": "native", "k": 1, "max_dist": 0.1,
+                    "n_points": n, "n_queries": SCALE_QUERIES, "run_type": "iteration", "time_unit": "s",
+                    "real_time": per_query * SCALE_QUERIES, "median_s": per_query * SCALE_QUERIES}
+            build = {"name": f"build/{model}/{adapter}", "model": model, "adapter": adapter, "n_points": n,
+                     "real_time": build_s, "time_unit": "s", "build_seconds": build_s, "index_bytes": 20 * n}
+            if i >= sizes_run:
+                reason = f"skipped on models of {SCALE_SIZES[sizes_run - 1]} points and more: over budget"
+                for rec in (cell, build):
+                    rec.update(skipped=reason, real_time=0, median_s=0, build_seconds=0)
+            records += [cell, build]
+    return records

@@ -1,0 +1,37 @@
+#include "memory.hpp"
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace nnb::sweep {
+namespace {
+
+// A "Key:   1234 kB" line of /proc/self/status, in bytes.
+std::size_t status_kib_field(const std::string& key) {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.compare(0, key.size() + 1, key + ":") != 0) continue;
+    std::istringstream fields(line.substr(key.size() + 1));
+    std::size_t kib = 0;
+    fields >> kib;
+    return kib * 1024;
+  }
+  return 0;
+}
+
+}  // namespace
+
+std::size_t current_rss_bytes() { return status_kib_field("VmRSS"); }
+
+std::size_t peak_rss_bytes() { return status_kib_field("VmHWM"); }
+
+bool reset_peak_rss() {
+  std::ofstream out("/proc/self/clear_refs");
+  out << "5";
+  out.flush();
+  return static_cast<bool>(out);
+}
+
+}  // namespace nnb::sweep
