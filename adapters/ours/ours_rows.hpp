@@ -1,0 +1,64 @@
+#pragma once
+// Shared by the ours_kdtree and ours_octree adapters: run a tree over a batch of queries and turn its
+// candidates into exact rows. Double trees compute sq_dist exactly as nnb::sq_dist_m2 (same inputs,
+// same order, no FMA: nnb_ours compiles with -ffp-contract=off), so their rows are final. Float trees
+// return a conservative superset; its distances are recomputed in double, filtered and truncated.
+#include "nnb/search_index.hpp"
+#include "ours/collector.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace nnb::adapters::ours_rows {
+
+/// Fills out with the k nearest model points within limit_sq_m2 (m^2, inclusive) of each query.
+template <typename T, class Tree>
+void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, double limit_sq_m2,
+            Neighbours& out) {
+  out.reset(static_cast<std::size_t>(queries.cols()), static_cast<std::size_t>(queries.cols()));
+  ours::SearchBuffers<T> buffers;
+  std::vector<std::pair<double, PointIndex>> row;
+  tree.knn_batch(queries.data(), static_cast<std::size_t>(queries.cols()), k, limit_sq_m2, buffers,
+                 [&](std::size_t q, const std::vector<ours::Neighbour<T>>& best) {
+                   if constexpr (std::is_same_v<T, double>) {
+                     for (const auto& n : best) out.push(n.index, n.sq_dist);
+                   } else {
+                     const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
+                     row.clear();
+                     for (const auto& n : best) {
+                       const double sq = sq_dist_m2(query, model.col(n.index).data());
+                       if (sq <= limit_sq_m2) row.emplace_back(sq, n.index);
+                     }
+                     const std::size_t keep = std::min(row.size(), static_cast<std::size_t>(k));
+                     std::partial_sort(row.begin(), row.begin() + static_cast<std::ptrdiff_t>(keep), row.end());
+                     for (std::size_t i = 0; i < keep; ++i) out.push(row[i].second, row[i].first);
+                   }
+                   out.end_query();
+                 });
+}
+
+/// Fills out with every model point within radius_m (inclusive) of each query, in tree order.
+template <typename T, class Tree>
+void radius(const Tree& tree, const Cloud& model, const Cloud& queries, double radius_m, Neighbours& out) {
+  const double limit_sq_m2 = radius_m * radius_m;
+  out.reset(static_cast<std::size_t>(queries.cols()));
+  ours::SearchBuffers<T> buffers;
+  for (Eigen::Index q = 0; q < queries.cols(); ++q) {
+    const double* query = queries.col(q).data();
+    tree.radius(query, limit_sq_m2, buffers);
+    for (const auto& n : buffers.best) {
+      if constexpr (std::is_same_v<T, double>) {
+        if (n.sq_dist <= limit_sq_m2) out.push(n.index, n.sq_dist);
+      } else {
+        const double sq = sq_dist_m2(query, model.col(n.index).data());
+        if (sq <= limit_sq_m2) out.push(n.index, sq);
+      }
+    }
+    out.end_query();
+  }
+}
+
+}  // namespace nnb::adapters::ours_rows

@@ -1,0 +1,215 @@
+#pragma once
+// What the k-d tree and the octree share: candidates, the k-best collectors (a linear heap for small
+// k, a binary heap for large k, as libnabo), and the error model that makes a float search safe.
+//
+// Exactness. Both trees compute distances in their scalar T. With T = double and no origin shift the
+// distance of a point is computed exactly as nnb::sq_dist_m2, so the answer is the exact answer. With
+// T = float the search is "conservative": it keeps every candidate whose float distance could belong
+// to the exact double answer (within a slack S(x) of the k-th distance and of the limit), and the caller
+// recomputes distances in double, filters and keeps the k nearest.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <type_traits>
+#include <vector>
+
+namespace ours {
+
+/// One neighbour: its index in the model and its squared distance (square metres, in T).
+template <typename T>
+struct Neighbour {
+  T sq_dist;
+  std::uint32_t index;
+};
+
+/// A cell the k-d tree search has still to visit: its node, squared distance (m^2) and per-axis offsets.
+template <typename T>
+struct PendingCell {
+  std::array<T, 3> offsets;
+  T sq_dist;
+  std::uint32_t node;
+};
+
+/// Reusable per-caller buffers, so that a batch of queries allocates nothing per query.
+template <typename T>
+struct SearchBuffers {
+  std::vector<Neighbour<T>> best;       ///< the k best so far
+  std::vector<Neighbour<T>> extras;     ///< float only: near misses that may still belong to the answer
+  std::vector<PendingCell<T>> pending;  ///< the k-d tree's explicit stack (one entry per level at most)
+};
+
+/// Linear heaps pay O(k) per insertion with a tiny constant; the paper found them faster up to k = 30.
+constexpr int kLinearHeapMaxK = 30;
+
+/// The float error model. For float coordinates stored relative to an origin, with the query's largest
+/// coordinate magnitude m (metres, relative to that origin), |float sq_dist - exact sq_dist| stays
+/// below about 21 u (m^2 + d) with u = 2^-24; slack() returns three times the bound that is needed.
+template <typename T>
+struct ErrorModel {
+  static constexpr bool kConservative = std::is_same_v<T, float>;
+  T abs_m2 = 0;  ///< m^2 of the query
+  /// Returns the slack (m^2) to allow above a float squared distance x (m^2); 0 for double.
+  T slack(T x) const {
+    if constexpr (kConservative) {
+      return T(128) * T(5.9604645e-8) * (abs_m2 + x);
+    } else {
+      (void)x;
+      return T(0);
+    }
+  }
+};
+
+/// Relative safety factor on incrementally updated cell bounds (rounding over `steps` updates).
+template <typename T>
+inline T bound_shrink(int steps) {
+  const double u = std::is_same_v<T, float> ? 5.9604645e-8 : 1.1102230246251565e-16;
+  return T(1.0 - std::min(0.5, 8.0 * u * (steps + 8)));
+}
+
+/// Collects the k nearest candidates within limit_sq. Linear = sorted array, else binary max-heap.
+template <typename T, bool Linear>
+class Collector {
+ public:
+  Collector(SearchBuffers<T>& buffers, int k, T limit_sq, ErrorModel<T> error)
+      : best_(buffers.best), extras_(buffers.extras), k_(static_cast<std::size_t>(k)), limit_sq_(limit_sq),
+        error_(error) {
+    best_.clear();
+    extras_.clear();
+    bound_ = limit_sq_;
+  }
+
+  /// Returns the squared distance (m^2) beyond which nothing can enter the answer (prune above it).
+  T bound() const { return bound_; }
+
+  /// Offers one point; the caller has already checked sq_dist <= bound().
+  void offer(T sq_dist, std::uint32_t index) {
+    if (best_.size() < k_) {
+      insert({sq_dist, index});
+      if (best_.size() == k_) update_bound();
+      return;
+    }
+    if (sq_dist < kth()) {
+      if constexpr (ErrorModel<T>::kConservative) extras_.push_back(evict());
+      else evict();
+      insert({sq_dist, index});
+      update_bound();
+    } else if constexpr (ErrorModel<T>::kConservative) {
+      extras_.push_back({sq_dist, index});
+    }
+  }
+
+  /// Moves the answer into buffers.best, nearest first (float: plus every near miss, unsorted tail).
+  void finish() {
+    if constexpr (!Linear) std::sort_heap(best_.begin(), best_.end(), by_dist);
+    if constexpr (ErrorModel<T>::kConservative) {
+      for (const auto& e : extras_) {
+        if (e.sq_dist <= bound_) best_.push_back(e);
+      }
+    }
+  }
+
+ private:
+  static bool by_dist(const Neighbour<T>& a, const Neighbour<T>& b) { return a.sq_dist < b.sq_dist; }
+
+  T kth() const { return Linear ? best_.back().sq_dist : best_.front().sq_dist; }
+
+  void update_bound() {
+    const T kth_sq = kth();
+    bound_ = std::min(limit_sq_, kth_sq + error_.slack(kth_sq));
+  }
+
+  void insert(Neighbour<T> n) {
+    if constexpr (Linear) {
+      best_.push_back(n);
+      std::size_t i = best_.size() - 1;
+      while (i > 0 && best_[i - 1].sq_dist > n.sq_dist) {
+        best_[i] = best_[i - 1];
+        --i;
+      }
+      best_[i] = n;
+    } else {
+      best_.push_back(n);
+      std::push_heap(best_.begin(), best_.end(), by_dist);
+    }
+  }
+
+  Neighbour<T> evict() {
+    if constexpr (Linear) {
+      const Neighbour<T> last = best_.back();
+      best_.pop_back();
+      return last;
+    } else {
+      std::pop_heap(best_.begin(), best_.end(), by_dist);
+      const Neighbour<T> last = best_.back();
+      best_.pop_back();
+      return last;
+    }
+  }
+
+  std::vector<Neighbour<T>>& best_;
+  std::vector<Neighbour<T>>& extras_;
+  std::size_t k_;
+  T limit_sq_;
+  ErrorModel<T> error_;
+  T bound_;
+};
+
+/// The nearest point within limit_sq (exact scalars only: a float search needs Collector's near misses).
+/// 1-NN is what ICP asks for, so it gets a collector without a heap.
+template <typename T>
+class NearestCollector {
+  static_assert(!ErrorModel<T>::kConservative, "float searches keep near misses: use Collector");
+
+ public:
+  NearestCollector(SearchBuffers<T>& buffers, T limit_sq) : best_(buffers.best), bound_(limit_sq) {
+    best_.clear();
+  }
+  T bound() const { return bound_; }
+  void offer(T sq_dist, std::uint32_t index) {
+    bound_ = sq_dist;  // the caller checked sq_dist <= bound(): it is the new best
+    index_ = index;
+    found_ = true;
+  }
+  void finish() {
+    if (found_) best_.push_back({bound_, index_});
+  }
+
+ private:
+  std::vector<Neighbour<T>>& best_;
+  T bound_;
+  std::uint32_t index_ = 0;
+  bool found_ = false;
+};
+
+/// Every point within limit_sq, in the order found.
+template <typename T>
+class RadiusCollector {
+ public:
+  RadiusCollector(SearchBuffers<T>& buffers, T limit_sq) : best_(buffers.best), limit_sq_(limit_sq) {
+    best_.clear();
+  }
+  T bound() const { return limit_sq_; }
+  void offer(T sq_dist, std::uint32_t index) { best_.push_back({sq_dist, index}); }
+  void finish() {}
+
+ private:
+  std::vector<Neighbour<T>>& best_;
+  T limit_sq_;
+};
+
+/// Returns the limit (m^2, in T) a search must use so that nothing within limit_sq_m2 (exact, double)
+/// is lost to float rounding; for double, the limit itself.
+template <typename T>
+inline T search_limit(double limit_sq_m2, const ErrorModel<T>& error) {
+  if (!std::isfinite(limit_sq_m2)) return std::numeric_limits<T>::infinity();
+  if constexpr (ErrorModel<T>::kConservative) {
+    const double limit = limit_sq_m2 + 2.0 * double(error.slack(T(limit_sq_m2)));
+    return limit > double(std::numeric_limits<T>::max()) ? std::numeric_limits<T>::infinity() : T(limit);
+  } else {
+    return limit_sq_m2;
+  }
+}
+
+}  // namespace ours

@@ -1,0 +1,434 @@
+#pragma once
+// A compact k-d tree after libnabo (Elseberg et al. 2012, section 3.2): a vector of small nodes in
+// pre-order (the left child is the next node), sliding-midpoint splits, buckets of points copied in
+// tree order, and the search of Algorithm 3 (per-dimension offsets to the cell, their squared norm
+// updated incrementally).
+//
+// Node layout: 8 bytes for both scalars, as libnabo's compact nodes.
+//   word = (right child index << 2) | cut dimension       for a split node (dimension 0..2)
+//   word = (bucket size << 2) | 3                          for a leaf
+//   cut  = the split plane as a float relative to origin() (split), or the first bucket entry (leaf)
+// The plane IS that float: a double tree compares a coordinate with origin + double(cut), computed the
+// same way when building and searching, so any float is a valid plane and the double search stays
+// bit-exact. Sliding midpoint picks the float nearest the midpoint that leaves points on both sides; a
+// cell whose points no float separates (a tiny extent far from the origin) stays a leaf.
+//
+// Search: Algorithm 3 with an explicit stack of pending far cells. With random queries the descent
+// from the root is a chain of dependent loads and unpredictable branches; knn_batch() therefore runs
+// the first descents of kBatch queries interleaved and branch-free, so that their chains overlap.
+#include "ours/collector.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <type_traits>
+#include <vector>
+
+namespace ours {
+
+template <typename T>
+class KdTree {
+  static_assert(std::is_same_v<T, float> || std::is_same_v<T, double>, "KdTree<float> or KdTree<double>");
+
+ public:
+  struct Node {
+    std::uint32_t word;
+    union {
+      float cut;
+      std::uint32_t bucket;
+    };
+    bool is_leaf() const { return (word & 3u) == 3u; }
+    unsigned dim() const { return word & 3u; }
+    std::uint32_t right_or_size() const { return word >> 2; }
+  };
+  static_assert(sizeof(Node) == 8, "compact node");
+
+  /// Builds over n points given as x,y,z triples (metres, double). Cut planes are stored relative to
+  /// the centre of the bounding box, and float trees store their coordinates relative to it too, so
+  /// that large offsets cost no precision.
+  void build(const double* xyz, std::size_t n, int bucket_size) {
+    if (bucket_size < 1) throw std::invalid_argument("ours::KdTree: bucket_size must be >= 1");
+    if (n >= (std::size_t(1) << 30)) throw std::invalid_argument("ours::KdTree: too many points");
+    nodes_.clear();
+    points_.clear();
+    indices_.clear();
+    max_depth_ = 0;
+    n_ = n;
+    bucket_size_ = static_cast<std::uint32_t>(bucket_size);
+    origin_ = {0, 0, 0};
+    if (n == 0) return;
+    std::array<double, 3> lo{}, hi{};
+    bounds_of(xyz, n, lo, hi);
+    for (int d = 0; d < 3; ++d) origin_[d] = 0.5 * (lo[d] + hi[d]);
+    // Working copy in T: what the tree compares is exactly what it stores.
+    std::vector<T> work(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < 3; ++d) work[3 * i + d] = T(xyz[3 * i + d] - point_shift(d));
+    }
+    std::vector<std::uint32_t> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
+    std::array<T, 3> cell_lo, cell_hi;
+    for (int d = 0; d < 3; ++d) {
+      cell_lo[d] = work[d];
+      cell_hi[d] = work[d];
+    }
+    for (std::size_t i = 1; i < n; ++i) {
+      for (int d = 0; d < 3; ++d) {
+        cell_lo[d] = std::min(cell_lo[d], work[3 * i + d]);
+        cell_hi[d] = std::max(cell_hi[d], work[3 * i + d]);
+      }
+    }
+    nodes_.reserve(2 * (n / bucket_size_ + 1));
+    build_node(work, order.data(), 0, static_cast<std::uint32_t>(n), cell_lo, cell_hi, 0);
+    nodes_.shrink_to_fit();
+    points_.resize(3 * n);
+    indices_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      indices_[i] = order[i];
+          for (int d = 0; d < 3; ++d) points_[3 * i + d] = work[3 * order[i] + d];
+    }
+    shrink_ = bound_shrink<T>(static_cast<int>(max_depth_));
+  }
+
+  /// Returns the split plane of a cut stored as `cut` on axis dim, in the tree's coordinates (T).
+  T plane(unsigned dim, float cut) const {
+    if constexpr (std::is_same_v<T, float>) return cut;
+    else return origin_[dim] + double(cut);
+  }
+
+  /// Queries descended together: their dependent node loads overlap instead of waiting on each other.
+  static constexpr std::size_t kBatch = 8;
+
+  /// Returns the k nearest points within sq(max distance) limit_sq_m2 (m^2; infinity for plain k-NN),
+  /// into buffers.best, nearest first. Float trees return a superset (see collector.hpp).
+  void knn(const double* query, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+    knn_batch(query, 1, k, limit_sq_m2, buffers, [](std::size_t, const std::vector<Neighbour<T>>&) {});
+  }
+
+  /// For each of n queries (x,y,z triples, metres) calls emit(i, buffers.best) with the k nearest
+  /// points within limit_sq_m2 (m^2) of query i, nearest first (float: a superset). The descents
+  /// from the root run kBatch queries at a time, interleaved; the rest of each search runs alone.
+  template <class Emit>
+  void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
+                 Emit&& emit) const {
+    if (n_ == 0 || k < 1) {
+      buffers.best.clear();
+      for (std::size_t i = 0; i < n; ++i) emit(i, buffers.best);
+      return;
+    }
+    const std::size_t stride = max_depth_ + 2;
+    if (buffers.pending.size() < kBatch * stride) buffers.pending.resize(kBatch * stride);
+    for (std::size_t first = 0; first < n; first += kBatch) {
+      const std::size_t m = std::min(kBatch, n - first);
+      Descents batch;
+      for (std::size_t j = 0; j < m; ++j) {
+        batch.q[j] = make_query(xyz + 3 * (first + j));
+        batch.limit[j] = search_limit(limit_sq_m2, batch.q[j].error);
+        batch.top[j] = buffers.pending.data() + j * stride;
+      }
+      descend(batch, m);
+      for (std::size_t j = 0; j < m; ++j) {
+        const Query& q = batch.q[j];
+        PendingCell<T>* const bottom = buffers.pending.data() + j * stride;
+        buffers.best.clear();
+        buffers.extras.clear();
+        auto finish_search = [&](auto& collect) {
+          search_from(q, collect, batch.leaf[j], bottom, batch.top[j]);
+          collect.finish();
+        };
+        if constexpr (!ErrorModel<T>::kConservative) {
+          if (k == 1) {
+            NearestCollector<T> nearest(buffers, batch.limit[j]);
+            finish_search(nearest);
+            emit(first + j, buffers.best);
+            continue;
+          }
+        }
+        if (k <= kLinearHeapMaxK) {
+          Collector<T, true> heap(buffers, k, batch.limit[j], q.error);
+          finish_search(heap);
+        } else {
+          Collector<T, false> heap(buffers, k, batch.limit[j], q.error);
+          finish_search(heap);
+        }
+        emit(first + j, buffers.best);
+      }
+    }
+  }
+
+  /// Returns every point within sq(radius) limit_sq_m2 (m^2) in buffers.best, in tree order
+  /// (float trees: a superset, see collector.hpp).
+  void radius(const double* query, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+    buffers.best.clear();
+    if (n_ == 0) return;
+    const std::size_t stride = max_depth_ + 2;
+    if (buffers.pending.size() < stride) buffers.pending.resize(stride);
+    Descents one;
+    one.q[0] = make_query(query);
+    one.limit[0] = search_limit(limit_sq_m2, one.q[0].error);
+    one.top[0] = buffers.pending.data();
+    descend(one, 1);
+    RadiusCollector<T> all(buffers, one.limit[0]);
+    search_from(one.q[0], all, one.leaf[0], buffers.pending.data(), one.top[0]);
+  }
+
+  /// Returns the nodes, pre-order.
+  const std::vector<Node>& nodes() const { return nodes_; }
+  /// Returns the model indices of the bucket entries, in tree order.
+  const std::vector<std::uint32_t>& indices() const { return indices_; }
+  /// Returns the bucket coordinates (x,y,z in T; float: relative to origin(), double: as given), in
+  /// tree order.
+  const std::vector<T>& points() const { return points_; }
+  /// Returns the origin (metres): the centre of the bounding box; cuts (and float coordinates) are
+  /// stored relative to it.
+  const std::array<double, 3>& origin() const { return origin_; }
+  /// Returns the depth of the deepest leaf (root = 0).
+  std::uint32_t max_depth() const { return max_depth_; }
+  /// Returns bytes of the nodes.
+  std::size_t node_bytes() const { return nodes_.size() * sizeof(Node); }
+  /// Returns bytes of the bucket index array.
+  std::size_t index_bytes() const { return indices_.size() * sizeof(std::uint32_t); }
+  /// Returns bytes of the point copies kept in tree order.
+  std::size_t point_copy_bytes() const { return points_.size() * sizeof(T); }
+
+ private:
+  struct Query {
+    std::array<T, 3> p;
+    ErrorModel<T> error;
+  };
+
+  static void bounds_of(const double* xyz, std::size_t n, std::array<double, 3>& lo, std::array<double, 3>& hi) {
+    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = xyz[d];
+    for (std::size_t i = 1; i < n; ++i) {
+      for (int d = 0; d < 3; ++d) {
+        lo[d] = std::min(lo[d], xyz[3 * i + d]);
+        hi[d] = std::max(hi[d], xyz[3 * i + d]);
+      }
+    }
+  }
+
+  Query make_query(const double* query) const {
+    Query q;
+    double m = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double rel = query[d] - origin_[d];
+      q.p[d] = T(query[d] - point_shift(d));
+      m = std::max(m, std::abs(rel));
+    }
+    // Beyond float range the error model fails anyway; saturate instead of overflowing.
+    q.error.abs_m2 = T(std::min(m * m, 1e30));
+    return q;
+  }
+
+  // What stored coordinates are relative to on axis d: the origin for float, nothing for double.
+  double point_shift(int d) const { return std::is_same_v<T, float> ? origin_[d] : 0.0; }
+
+  // The float cut whose plane lies in [pmin, pmax]: the one nearest c, else (rounding moved it out)
+  // the lowest at or above pmin, or the highest at or below pmax; false when no float plane fits.
+  bool choose_cut(unsigned dim, T c, T pmin, T pmax, float& cut) const {
+    cut = std::is_same_v<T, float> ? float(c) : float(double(c) - origin_[dim]);
+    if (std::isfinite(cut) && plane(dim, cut) >= pmin && plane(dim, cut) <= pmax) return true;
+    const bool below = !(std::isfinite(cut) && plane(dim, cut) > pmax);
+    // plane() never decreases along the floats in order: binary search on their ordered bit patterns.
+    std::int64_t lo = float_order(-std::numeric_limits<float>::max());
+    std::int64_t hi = float_order(std::numeric_limits<float>::max());
+    while (lo < hi) {
+      const std::int64_t mid = below ? lo + (hi - lo) / 2 : hi - (hi - lo) / 2;
+      const T at = plane(dim, ordered_float(mid));
+      if (below) {
+        if (at >= pmin) hi = mid;
+        else lo = mid + 1;
+      } else {
+        if (at <= pmax) lo = mid;
+        else hi = mid - 1;
+      }
+    }
+    cut = ordered_float(lo);
+    return plane(dim, cut) >= pmin && plane(dim, cut) <= pmax;
+  }
+
+  // Floats as integers in their numeric order (-0 and +0 both map to 0), and back.
+  static std::int64_t float_order(float f) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &f, sizeof bits);
+    const std::int64_t magnitude = bits & 0x7fffffffu;
+    return (bits >> 31) ? -magnitude : magnitude;
+  }
+  static float ordered_float(std::int64_t key) {
+    const std::uint32_t bits = key < 0 ? (static_cast<std::uint32_t>(-key) | 0x80000000u) : static_cast<std::uint32_t>(key);
+    float f;
+    std::memcpy(&f, &bits, sizeof f);
+    return f;
+  }
+
+  // Builds the subtree of order[begin, end) inside the cell [lo, hi]; returns nothing, appends nodes.
+  void build_node(const std::vector<T>& pts, std::uint32_t* order, std::uint32_t begin, std::uint32_t end,
+                  std::array<T, 3> lo, std::array<T, 3> hi, std::uint32_t depth) {
+    max_depth_ = std::max(max_depth_, depth);
+    const std::uint32_t count = end - begin;
+    // Point bounds decide which dimensions can be split at all (duplicates, flat clouds).
+    std::array<T, 3> pmin, pmax;
+    for (int d = 0; d < 3; ++d) pmin[d] = pmax[d] = pts[3 * order[begin] + d];
+    for (std::uint32_t i = begin + 1; i < end; ++i) {
+      for (int d = 0; d < 3; ++d) {
+        const T v = pts[3 * order[i] + d];
+        pmin[d] = std::min(pmin[d], v);
+        pmax[d] = std::max(pmax[d], v);
+      }
+    }
+    // Sliding midpoint on the widest side of the cell; narrower sides when no float cut fits there.
+    int dim = -1;
+    float cut = 0;
+    if (count > bucket_size_) {
+      std::array<int, 3> by_width{0, 1, 2};
+      std::stable_sort(by_width.begin(), by_width.end(), [&](int a, int b) { return hi[a] - lo[a] > hi[b] - lo[b]; });
+      for (const int d : by_width) {
+        if (!(pmax[d] > pmin[d])) continue;
+        const T middle = std::clamp(lo[d] + (hi[d] - lo[d]) / 2, pmin[d], pmax[d]);
+        if (choose_cut(unsigned(d), middle, pmin[d], pmax[d], cut)) {
+          dim = d;
+          break;
+        }
+      }
+    }
+    if (dim < 0) {
+      Node leaf;
+      leaf.word = (count << 2) | 3u;
+      leaf.bucket = begin;
+      nodes_.push_back(leaf);
+      return;
+    }
+    const T split_at = plane(unsigned(dim), cut);
+    auto coord = [&](std::uint32_t i) { return pts[3 * i + dim]; };
+    std::uint32_t* first = order + begin;
+    std::uint32_t* last = order + end;
+    std::uint32_t* eq_begin = std::partition(first, last, [&](std::uint32_t i) { return coord(i) < split_at; });
+    std::uint32_t* eq_end = std::partition(eq_begin, last, [&](std::uint32_t i) { return coord(i) == split_at; });
+    // Points on the plane may go either way: balance them, but keep at least one point per side.
+    const std::uint32_t n_lt = static_cast<std::uint32_t>(eq_begin - first);
+    const std::uint32_t n_le = static_cast<std::uint32_t>(eq_end - first);
+    std::uint32_t n_left = std::clamp(count / 2, n_lt, n_le);
+    n_left = std::clamp<std::uint32_t>(n_left, 1, count - 1);
+    const std::uint32_t split = begin + n_left;
+
+    const std::size_t self = nodes_.size();
+    nodes_.push_back(Node{});
+    nodes_[self].cut = cut;
+    std::array<T, 3> left_hi = hi, right_lo = lo;
+    left_hi[dim] = split_at;
+    right_lo[dim] = split_at;
+    build_node(pts, order, begin, split, lo, left_hi, depth + 1);
+    const std::size_t right = nodes_.size();
+    if (right >= (std::size_t(1) << 30)) throw std::length_error("ours::KdTree: too many nodes");
+    nodes_[self].word = (static_cast<std::uint32_t>(right) << 2) | static_cast<std::uint32_t>(dim);
+    build_node(pts, order, split, end, right_lo, hi, depth + 1);
+  }
+
+  // Up to kBatch searches between their first descent and the rest.
+  struct Descents {
+    std::array<Query, kBatch> q;
+    std::array<T, kBatch> limit;                ///< each query's initial bound (m^2, in T)
+    std::array<PendingCell<T>*, kBatch> top;    ///< each query's pending stack (its top)
+    std::array<std::uint32_t, kBatch> leaf{};   ///< the leaf each query descended to
+  };
+
+  // The first descent of Algorithm 3 for m queries, interleaved and branch-free: from the root the
+  // offsets are all zero and the near child inherits them, so each far child pushed has the single
+  // offset of its own cut. A query that reached its leaf idles until all have.
+  void descend(Descents& batch, std::size_t m) const {
+    std::array<Node, kBatch> node;
+    for (std::size_t j = 0; j < m; ++j) {
+      batch.leaf[j] = 0;
+      node[j] = nodes_[0];
+    }
+    for (bool active = true; active;) {
+      active = false;
+      for (std::size_t j = 0; j < m; ++j) {
+        const Node nd = node[j];
+        const std::uint32_t index = batch.leaf[j];
+        const bool inner = !nd.is_leaf();
+        // A leaf's second word is a bucket index, not a float: read it as 0 (no denormal stalls).
+        const unsigned dim = inner ? nd.dim() : 0u;
+        const float cut = inner ? nd.cut : 0.0f;
+        const T new_off = batch.q[j].p[dim] - plane(dim, cut);
+        const bool go_right = new_off > 0;
+        PendingCell<T>* const top = batch.top[j];
+        top->offsets = {0, 0, 0};
+        top->offsets[dim] = new_off;
+        top->sq_dist = new_off * new_off;
+        top->node = go_right ? index + 1 : nd.right_or_size();
+        batch.top[j] = top + (inner && top->sq_dist * shrink_ <= batch.limit[j] ? 1 : 0);
+        const std::uint32_t next = go_right ? nd.right_or_size() : index + 1;
+        batch.leaf[j] = inner ? next : index;
+        node[j] = nodes_[batch.leaf[j]];
+        active |= inner;
+      }
+    }
+  }
+
+  // Algorithm 3 without recursion, after the first descent: scan the leaf, pop the next pending cell
+  // still within the bound, descend from it (pushing each far child with its offsets, per-axis distance
+  // parts, and their squared norm), repeat. The pushes are branch-free: written always, kept when
+  // within the bound. shrink_ absorbs the rounding of the incremental update, so no point at the bound
+  // is lost.
+  template <class Collect>
+  void search_from(const Query& q, Collect& collect, std::uint32_t leaf, PendingCell<T>* const bottom,
+                   PendingCell<T>* top) const {
+    Node node = nodes_[leaf];
+    for (;;) {
+      scan_bucket(node, q, collect);
+      do {
+        if (top == bottom) return;
+        --top;
+      } while (top->sq_dist * shrink_ > collect.bound());
+      std::array<T, 3> offsets = top->offsets;
+      const T rd = top->sq_dist;
+      std::uint32_t index = top->node;
+      node = nodes_[index];
+      while (!node.is_leaf()) {
+        const unsigned dim = node.dim();
+        const T new_off = q.p[dim] - plane(dim, node.cut);
+        const std::uint32_t right = node.right_or_size();
+        const bool go_right = new_off > 0;
+        const T far_rd = rd - offsets[dim] * offsets[dim] + new_off * new_off;
+        top->offsets = offsets;
+        top->offsets[dim] = new_off;
+        top->sq_dist = far_rd;
+        top->node = go_right ? index + 1 : right;
+        top += far_rd * shrink_ <= collect.bound() ? 1 : 0;
+        index = go_right ? right : index + 1;
+        node = nodes_[index];
+      }
+    }
+  }
+
+  template <class Collect>
+  void scan_bucket(const Node& leaf, const Query& q, Collect& collect) const {
+    const std::uint32_t begin = leaf.bucket;
+    const std::uint32_t end = begin + leaf.right_or_size();
+    const T* p = points_.data() + 3 * std::size_t(begin);
+    for (std::uint32_t i = begin; i < end; ++i, p += 3) {
+      const T dx = q.p[0] - p[0];
+      const T dy = q.p[1] - p[1];
+      const T dz = q.p[2] - p[2];
+      const T sq = dx * dx + dy * dy + dz * dz;
+      if (sq <= collect.bound()) collect.offer(sq, indices_[i]);
+    }
+  }
+
+  std::vector<Node> nodes_;
+  std::vector<T> points_;
+  std::vector<std::uint32_t> indices_;
+  std::array<double, 3> origin_{0, 0, 0};
+  std::size_t n_ = 0;
+  std::uint32_t bucket_size_ = 8;
+  std::uint32_t max_depth_ = 0;
+  T shrink_ = 1;
+};
+
+}  // namespace ours

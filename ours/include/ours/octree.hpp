@@ -1,0 +1,382 @@
+#pragma once
+// A compact octree after 3DTK (Elseberg et al. 2012, section 3.1, Algorithms 1 and 2).
+//
+// Nodes are 8 bytes. An inner node holds a bitmask of its non-empty children, a bitmask of which of
+// them are leaves, and the index of its first child: the children of a node are stored together, so
+// child j sits at first + popcount(valid & ((1 << j) - 1)). A leaf node holds its point count and the
+// index of its first point; the points of a leaf are stored together (copied, in tree order).
+//
+// Search (exact). The query and its search box (query +- sqrt(current bound)) are converted once to
+// integer octree coordinates; the search descends directly to the deepest node that contains the box
+// (Algorithm 1), then visits children nearest first (Algorithm 2), ordered by a lower bound of their
+// distance in integer units, and leaves a node at its first child beyond the ball. Floating point is
+// used in leaves, and to shrink the ball when a leaf improved the bound.
+#include "ours/collector.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <type_traits>
+#include <vector>
+
+namespace ours {
+
+/// Returns the number of set bits of an 8-bit mask (no libgcc call without -mpopcnt).
+inline std::uint32_t popcount8(unsigned mask) {
+  mask = mask - ((mask >> 1) & 0x55u);
+  mask = (mask & 0x33u) + ((mask >> 2) & 0x33u);
+  return (mask + (mask >> 4)) & 0x0fu;
+}
+
+template <typename T>
+class Octree {
+  static_assert(std::is_same_v<T, float> || std::is_same_v<T, double>, "Octree<float> or Octree<double>");
+
+ public:
+  /// Integer coordinates have this many bits per axis: the deepest possible level.
+  static constexpr int kMaxLevel = 20;
+
+  struct Node {
+    std::uint32_t word;   ///< inner: valid mask | leaf mask << 8; leaf: number of points
+    std::uint32_t first;  ///< inner: index of the first child node; leaf: index of the first point
+    unsigned valid() const { return word & 0xffu; }
+    unsigned leaves() const { return (word >> 8) & 0xffu; }
+  };
+  static_assert(sizeof(Node) == 8, "compact node");
+
+  /// Builds over n points given as x,y,z triples (metres, double). A cell becomes a leaf when it holds
+  /// at most max_points_per_leaf points, or its children would be smaller than min_cell_size_m (metres),
+  /// or it reached kMaxLevel.
+  void build(const double* xyz, std::size_t n, int max_points_per_leaf, double min_cell_size_m) {
+    if (max_points_per_leaf < 1) throw std::invalid_argument("ours::Octree: max_points_per_leaf must be >= 1");
+    if (!(min_cell_size_m >= 0)) throw std::invalid_argument("ours::Octree: min_cell_size_m must be >= 0");
+    if (n >= (std::size_t(1) << 32) - 1) throw std::invalid_argument("ours::Octree: too many points");
+    nodes_.clear();
+    points_.clear();
+    indices_.clear();
+    n_ = n;
+    max_points_ = static_cast<std::uint32_t>(max_points_per_leaf);
+    min_cell_m_ = min_cell_size_m;
+    origin_ = {0, 0, 0};
+    if (n == 0) return;
+    std::array<double, 3> lo, hi;
+    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = xyz[d];
+    for (std::size_t i = 1; i < n; ++i) {
+      for (int d = 0; d < 3; ++d) {
+        lo[d] = std::min(lo[d], xyz[3 * i + d]);
+        hi[d] = std::max(hi[d], xyz[3 * i + d]);
+      }
+    }
+    side_m_ = 0;
+    for (int d = 0; d < 3; ++d) side_m_ = std::max(side_m_, hi[d] - lo[d]);
+    if (!(side_m_ > 0)) side_m_ = 1;  // one point or all duplicates: any cube will do
+    for (int d = 0; d < 3; ++d) {
+      cube_lo_[d] = lo[d];
+      if constexpr (std::is_same_v<T, float>) origin_[d] = 0.5 * (lo[d] + hi[d]);
+    }
+    scale_ = double(1u << kMaxLevel) / side_m_;
+
+    std::vector<std::array<std::uint32_t, 3>> cells(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < 3; ++d) cells[i][d] = to_int(d, xyz[3 * i + d]);
+    }
+    std::vector<std::uint32_t> order(n), scratch(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
+    nodes_.push_back(Node{0, 0});
+    root_is_leaf_ = !should_split(static_cast<std::uint32_t>(n), 0);
+    if (root_is_leaf_) {
+      nodes_[0] = Node{static_cast<std::uint32_t>(n), 0};
+    } else {
+      build_children(0, cells, order.data(), scratch.data(), 0, static_cast<std::uint32_t>(n), 0);
+    }
+    nodes_.shrink_to_fit();
+    points_.resize(3 * n);
+    indices_ = order;
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < 3; ++d) points_[3 * i + d] = T(xyz[3 * order[i] + d] - origin_[d]);
+    }
+  }
+
+  /// Returns the k nearest points within sq(max distance) limit_sq_m2 (m^2; infinity for plain k-NN),
+  /// into buffers.best, nearest first. Float trees return a superset (see collector.hpp).
+  void knn(const double* query, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+    buffers.best.clear();
+    buffers.extras.clear();
+    if (n_ == 0 || k < 1) return;
+    const Query q = make_query(query);
+    const T limit = search_limit(limit_sq_m2, q.error);
+    if constexpr (!ErrorModel<T>::kConservative) {
+      if (k == 1) {
+        NearestCollector<T> nearest(buffers, limit);
+        search(q, nearest);
+        nearest.finish();
+        return;
+      }
+    }
+    if (k <= kLinearHeapMaxK) {
+      Collector<T, true> heap(buffers, k, limit, q.error);
+      search(q, heap);
+      heap.finish();
+    } else {
+      Collector<T, false> heap(buffers, k, limit, q.error);
+      search(q, heap);
+      heap.finish();
+    }
+  }
+
+  /// For each of n queries (x,y,z triples, metres) calls emit(i, buffers.best) with what knn() returns.
+  template <class Emit>
+  void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
+                 Emit&& emit) const {
+    for (std::size_t i = 0; i < n; ++i) {
+      knn(xyz + 3 * i, k, limit_sq_m2, buffers);
+      emit(i, buffers.best);
+    }
+  }
+
+  /// Returns every point within sq(radius) limit_sq_m2 (m^2) in buffers.best, in tree order
+  /// (float trees: a superset, see collector.hpp).
+  void radius(const double* query, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+    buffers.best.clear();
+    if (n_ == 0) return;
+    const Query q = make_query(query);
+    RadiusCollector<T> all(buffers, search_limit(limit_sq_m2, q.error));
+    search(q, all);
+  }
+
+  /// Returns the nodes (node 0 is the root; a leaf root when root_is_leaf()).
+  const std::vector<Node>& nodes() const { return nodes_; }
+  bool root_is_leaf() const { return root_is_leaf_; }
+  /// Returns the model indices of the leaf points, in tree order.
+  const std::vector<std::uint32_t>& indices() const { return indices_; }
+  /// Returns the leaf coordinates (x,y,z in T, relative to origin()), in tree order.
+  const std::vector<T>& points() const { return points_; }
+  /// Returns the origin (metres) that stored coordinates are relative to (zero for double).
+  const std::array<double, 3>& origin() const { return origin_; }
+  /// Returns the lowest corner of the root cube (metres).
+  const std::array<double, 3>& cube_lo() const { return cube_lo_; }
+  /// Returns the side of the root cube (metres).
+  double side_m() const { return side_m_; }
+  /// Returns the integer octree coordinate (0 .. 2^kMaxLevel - 1) of coordinate x (metres) on axis d.
+  std::uint32_t to_int(int d, double x) const {
+    const double t = std::floor((x - cube_lo_[d]) * scale_);
+    if (!(t > 0)) return 0;
+    if (t >= double((1u << kMaxLevel) - 1)) return (1u << kMaxLevel) - 1;
+    return static_cast<std::uint32_t>(t);
+  }
+  /// Returns bytes of the nodes.
+  std::size_t node_bytes() const { return nodes_.size() * sizeof(Node); }
+  /// Returns bytes of the leaf index array.
+  std::size_t index_bytes() const { return indices_.size() * sizeof(std::uint32_t); }
+  /// Returns bytes of the point copies kept in tree order.
+  std::size_t point_copy_bytes() const { return points_.size() * sizeof(T); }
+
+ private:
+  struct Query {
+    std::array<double, 3> q;  ///< metres, as given
+    std::array<T, 3> p;       ///< relative to origin_, in T
+    std::array<std::uint32_t, 3> cell;
+    ErrorModel<T> error;
+  };
+
+  // The integer box of the current search ball, updated when the bound shrinks.
+  struct Box {
+    std::array<std::uint32_t, 3> lo, hi;
+    double bound = -1;  // the bound (m^2, as T) the box was computed for
+    std::uint64_t ball_units2 = 0;  // the same bound in squared integer units, rounded up
+  };
+
+  bool should_split(std::uint32_t count, int level) const {
+    if (count <= max_points_ || level >= kMaxLevel) return false;
+    return side_m_ / double(1u << (level + 1)) >= min_cell_m_;
+  }
+
+  // Fills the children of the inner node `self` (cell at `level`) from order[begin, end).
+  void build_children(std::size_t self, const std::vector<std::array<std::uint32_t, 3>>& cells, std::uint32_t* order,
+                      std::uint32_t* scratch, std::uint32_t begin, std::uint32_t end, int level) {
+    const int shift = kMaxLevel - level - 1;
+    auto child_of = [&](std::uint32_t i) {
+      return ((cells[i][0] >> shift) & 1u) | (((cells[i][1] >> shift) & 1u) << 1) | (((cells[i][2] >> shift) & 1u) << 2);
+    };
+    std::array<std::uint32_t, 9> start{};
+    for (std::uint32_t i = begin; i < end; ++i) ++start[child_of(order[i]) + 1];
+    for (int j = 0; j < 8; ++j) start[j + 1] += start[j];
+    std::array<std::uint32_t, 8> fill{};
+    for (std::uint32_t i = begin; i < end; ++i) {
+      const unsigned j = child_of(order[i]);
+      scratch[begin + start[j] + fill[j]++] = order[i];
+    }
+    std::copy(scratch + begin, scratch + end, order + begin);
+
+    unsigned valid = 0, leaves = 0;
+    for (int j = 0; j < 8; ++j) {
+      const std::uint32_t count = start[j + 1] - start[j];
+      if (count == 0) continue;
+      valid |= 1u << j;
+      if (!should_split(count, level + 1)) leaves |= 1u << j;
+    }
+    const std::size_t first = nodes_.size();
+    if (first + 8 >= (std::size_t(1) << 32)) throw std::length_error("ours::Octree: too many nodes");
+    nodes_.resize(first + static_cast<std::size_t>(popcount8(valid)));
+    nodes_[self] = Node{valid | (leaves << 8), static_cast<std::uint32_t>(first)};
+    std::size_t slot = first;
+    for (int j = 0; j < 8; ++j) {
+      if (!(valid & (1u << j))) continue;
+      const std::uint32_t cb = begin + start[j], ce = begin + start[j + 1];
+      if (leaves & (1u << j)) {
+        nodes_[slot] = Node{ce - cb, cb};
+      } else {
+        build_children(slot, cells, order, scratch, cb, ce, level + 1);
+      }
+      ++slot;
+    }
+  }
+
+  Query make_query(const double* query) const {
+    Query q;
+    double m = 0;
+    for (int d = 0; d < 3; ++d) {
+      q.q[d] = query[d];
+      const double rel = query[d] - origin_[d];
+      q.p[d] = T(rel);
+      m = std::max(m, std::abs(rel));
+      q.cell[d] = to_int(d, query[d]);
+    }
+    q.error.abs_m2 = T(std::min(m * m, 1e30));
+    return q;
+  }
+
+  // The box of every point whose distance (in T) could be <= bound: conservative by the float slack
+  // and by the rounding of q +- r, so that the monotone to_int() keeps every such point inside.
+  void update_box(const Query& q, T bound, Box& box) const {
+    box.bound = double(bound);
+    const double b = double(bound) + double(q.error.slack(bound));
+    const double units2 = b * scale_ * scale_;
+    box.ball_units2 = !(units2 < 1e18) ? std::numeric_limits<std::uint64_t>::max()
+                                       : static_cast<std::uint64_t>(std::ceil(units2 * (1 + 1e-9))) + 1;
+    if (!std::isfinite(b) || b >= 1e300) {
+      box.lo = {0, 0, 0};
+      box.hi = {(1u << kMaxLevel) - 1, (1u << kMaxLevel) - 1, (1u << kMaxLevel) - 1};
+      return;
+    }
+    const double r = std::sqrt(b) * (1 + 1e-12);
+    for (int d = 0; d < 3; ++d) {
+      const double pad = r + 4 * std::numeric_limits<double>::epsilon() * std::abs(q.q[d]);
+      box.lo[d] = to_int(d, q.q[d] - pad);
+      box.hi[d] = to_int(d, q.q[d] + pad);
+    }
+  }
+
+  template <class Collect>
+  void search(const Query& q, Collect& collect) const {
+    Box box;
+    update_box(q, collect.bound(), box);
+    if (root_is_leaf_) {
+      scan_leaf(nodes_[0], q, collect);
+      return;
+    }
+    // Algorithm 1: the deepest node containing the whole box, by integer bits alone.
+    std::uint32_t differ = 0;
+    for (int d = 0; d < 3; ++d) differ |= box.lo[d] ^ box.hi[d];
+    const int common = differ == 0 ? kMaxLevel : kMaxLevel - (32 - __builtin_clz(differ));
+    std::uint32_t index = 0;
+    int level = 0;
+    std::array<std::uint32_t, 3> base{0, 0, 0};
+    while (level < common) {
+      const Node node = nodes_[index];
+      const int shift = kMaxLevel - level - 1;
+      const unsigned j = ((box.lo[0] >> shift) & 1u) | (((box.lo[1] >> shift) & 1u) << 1) |
+                         (((box.lo[2] >> shift) & 1u) << 2);
+      if (!(node.valid() & (1u << j))) return;  // the box lies in an empty cell: no point within reach
+      const std::uint32_t child = node.first + popcount8(node.valid() & ((1u << j) - 1));
+      if (node.leaves() & (1u << j)) {
+        scan_leaf(nodes_[child], q, collect);
+        return;
+      }
+      for (int d = 0; d < 3; ++d) base[d] |= ((j >> d) & 1u) << shift;
+      index = child;
+      ++level;
+    }
+    search_node(index, level, base, q, box, collect);
+  }
+
+  // Algorithm 2, exact: the children are visited nearest first, ordered by a lower bound of their
+  // squared distance to the query in integer units (per axis the gap in units minus 2: one for the
+  // floor of the mapping, one for its rounding; also right for a query clamped onto the root cube).
+  // The first child beyond the current ball ends the node, as every later child is farther still.
+  template <class Collect>
+  void search_node(std::uint32_t index, int level, const std::array<std::uint32_t, 3>& base, const Query& q, Box& box,
+                   Collect& collect) const {
+    const Node node = nodes_[index];
+    const std::uint32_t half = 1u << (kMaxLevel - level - 1);
+    // Squared gaps per axis to the lower (bit 0) and upper (bit 1) half of the cell.
+    std::array<std::array<std::uint64_t, 2>, 3> gap2;
+    for (int d = 0; d < 3; ++d) {
+      const std::uint32_t c = q.cell[d];
+      for (unsigned bit = 0; bit < 2; ++bit) {
+        const std::uint32_t lo = base[d] + (bit ? half : 0), hi = lo + (half - 1);
+        const std::uint32_t gap = c < lo ? lo - c : (c > hi ? c - hi : 0);
+        const std::uint64_t g = gap > 2 ? gap - 2 : 0;
+        gap2[d][bit] = g * g;
+      }
+    }
+    std::array<std::uint64_t, 8> dist;
+    std::array<std::uint8_t, 8> order;
+    unsigned count = 0;
+    for (unsigned valid = node.valid(); valid != 0; valid &= valid - 1) {
+      const unsigned j = static_cast<unsigned>(__builtin_ctz(valid));
+      const std::uint64_t dj = gap2[0][j & 1u] + gap2[1][(j >> 1) & 1u] + gap2[2][(j >> 2) & 1u];
+      unsigned at = count++;
+      for (; at > 0 && dist[at - 1] > dj; --at) {
+        dist[at] = dist[at - 1];
+        order[at] = order[at - 1];
+      }
+      dist[at] = dj;
+      order[at] = static_cast<std::uint8_t>(j);
+    }
+    for (unsigned s = 0; s < count; ++s) {
+      if (dist[s] > box.ball_units2) return;
+      const unsigned j = order[s];
+      const std::uint32_t child = node.first + popcount8(node.valid() & ((1u << j) - 1));
+      if (node.leaves() & (1u << j)) {
+        scan_leaf(nodes_[child], q, collect);
+        if (double(collect.bound()) < box.bound) update_box(q, collect.bound(), box);
+      } else {
+        std::array<std::uint32_t, 3> child_base;
+        for (int d = 0; d < 3; ++d) child_base[d] = base[d] + (((j >> d) & 1u) ? half : 0);
+        search_node(child, level + 1, child_base, q, box, collect);
+      }
+    }
+  }
+
+  template <class Collect>
+  void scan_leaf(const Node& leaf, const Query& q, Collect& collect) const {
+    const T* p = points_.data() + 3 * std::size_t(leaf.first);
+    const std::uint32_t end = leaf.first + leaf.word;
+    for (std::uint32_t i = leaf.first; i < end; ++i, p += 3) {
+      const T dx = q.p[0] - p[0];
+      const T dy = q.p[1] - p[1];
+      const T dz = q.p[2] - p[2];
+      const T sq = dx * dx + dy * dy + dz * dz;
+      if (sq <= collect.bound()) collect.offer(sq, indices_[i]);
+    }
+  }
+
+  std::vector<Node> nodes_;
+  std::vector<T> points_;
+  std::vector<std::uint32_t> indices_;
+  std::array<double, 3> origin_{0, 0, 0};
+  std::array<double, 3> cube_lo_{0, 0, 0};
+  double side_m_ = 1;
+  double scale_ = 1;
+  std::size_t n_ = 0;
+  std::uint32_t max_points_ = 8;
+  double min_cell_m_ = 0;
+  bool root_is_leaf_ = false;
+};
+
+}  // namespace ours

@@ -1,0 +1,427 @@
+// Our k-d tree and octree: structural invariants, and exact answers (compared by distance, to the
+// bit) against brute force on awkward clouds: duplicates, flat, collinear, huge offsets, tiny extents.
+#include "cross_check.hpp"
+#include "nnb/datasets/synthetic.hpp"
+#include "nnb/registry.hpp"
+#include "ours/kdtree.hpp"
+#include "ours/octree.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace {
+
+using nnb::Cloud;
+using nnb::Neighbours;
+using nnb::Params;
+
+// ---------- clouds ----------
+
+Cloud sphere(std::size_t n) { return nnb::datasets::make_shape(nnb::datasets::Shape::hollow_sphere, n, 7); }
+
+Cloud with_duplicates(std::size_t n) {
+  // Points snapped to a coarse grid (many exact duplicates), plus 50 copies of one point.
+  std::mt19937_64 rng(3);
+  std::uniform_int_distribution<int> cell(0, 6);
+  Cloud c(3, static_cast<Eigen::Index>(n));
+  for (Eigen::Index i = 0; i < c.cols(); ++i) {
+    if (i < 50) c.col(i) << 0.5, 0.5, 0.5;
+    else c.col(i) << 0.25 * cell(rng), 0.25 * cell(rng), 0.25 * cell(rng);
+  }
+  return c;
+}
+
+Cloud flat(std::size_t n) {
+  Cloud c = sphere(n);
+  c.row(2).setConstant(1.25);
+  return c;
+}
+
+Cloud collinear(std::size_t n) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> t(-1, 1);
+  Cloud c(3, static_cast<Eigen::Index>(n));
+  for (Eigen::Index i = 0; i < c.cols(); ++i) {
+    const double s = t(rng);
+    c.col(i) << 0.3 + s, -0.2 + 2 * s, 0.7 - 0.5 * s;
+  }
+  return c;
+}
+
+// A cluster whose spread (1e-12 m) is far below a float's resolution at its distance from the
+// cloud's centre: no float cut separates it, so the k-d tree must keep it in one oversized bucket.
+Cloud unsplittable_cluster(std::size_t n) {
+  Cloud c = sphere(n);
+  for (Eigen::Index i = 0; i < 100 && i < c.cols(); ++i) c.col(i) << 0.9 + 1e-12 * double(i), 0.1 - 1e-12 * double(i % 7), 0.2;
+  return c;
+}
+
+Cloud shifted(Cloud c, double scale, double offset) {
+  c *= scale;
+  c.array() += offset;
+  return c;
+}
+
+// Queries on model points, near them, and far outside the root cube.
+Cloud queries_for(const Cloud& model, double extent_m, std::size_t n) {
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<Eigen::Index> pick(0, model.cols() - 1);
+  std::normal_distribution<double> jitter(0, 1);
+  Cloud q(3, static_cast<Eigen::Index>(n));
+  for (Eigen::Index i = 0; i < q.cols(); ++i) {
+    const Eigen::Vector3d p = model.col(pick(rng));
+    const Eigen::Vector3d noise(jitter(rng), jitter(rng), jitter(rng));
+    switch (i % 4) {
+      case 0: q.col(i) = p; break;
+      case 1: q.col(i) = p + 0.01 * extent_m * noise; break;
+      case 2: q.col(i) = p + 0.2 * extent_m * noise; break;
+      default: q.col(i) = p + 3.0 * extent_m * noise; break;  // well outside the root cube
+    }
+  }
+  return q;
+}
+
+// ---------- exact comparison ----------
+
+// Both answers, row by row: same counts and the very same sorted distances (bit for bit).
+std::string exact_mismatch(const Cloud& model, const Cloud& queries, const Neighbours& expected,
+                           const Neighbours& got, bool sorted_rows) {
+  if (auto text = nnb::testing::compare_with_reference(model, queries, expected, got, sorted_rows); !text.empty()) {
+    return text;
+  }
+  for (std::size_t q = 0; q < expected.n_queries(); ++q) {
+    std::vector<double> a(expected.sq_dists.begin() + expected.offsets[q], expected.sq_dists.begin() + expected.offsets[q + 1]);
+    std::vector<double> b(got.sq_dists.begin() + got.offsets[q], got.sq_dists.begin() + got.offsets[q + 1]);
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    if (a != b) {
+      return "query " + std::to_string(q) + ": distances differ in their last bits\n  brute force:" +
+             nnb::testing::row_text(expected, q) + "\n  ours:       " + nnb::testing::row_text(got, q);
+    }
+  }
+  return "";
+}
+
+struct Variant {
+  std::string adapter;
+  Params params;
+  std::string label() const {
+    std::string text = adapter;
+    for (const auto& [k, v] : params) text += " " + k + "=" + v;
+    return text;
+  }
+};
+
+std::vector<Variant> variants() {
+  std::vector<Variant> all;
+  for (const char* scalar : {"double", "float"}) {
+    for (const char* bucket : {"1", "2", "8", "1000"}) {
+      all.push_back({"ours_kdtree", {{"scalar", scalar}, {"bucket_size", bucket}}});
+    }
+    for (const char* leaf : {"1", "2", "8", "1000"}) {
+      all.push_back({"ours_octree", {{"scalar", scalar}, {"max_points_per_leaf", leaf}}});
+    }
+    all.push_back({"ours_octree", {{"scalar", scalar}, {"max_points_per_leaf", "1"}, {"min_cell_size_m", "0.05"}}});
+  }
+  return all;
+}
+
+// Every variant, every query kind, against brute force; the limits scale with the cloud's extent.
+void check_all(const Cloud& model, double extent_m) {
+  const Cloud queries = queries_for(model, extent_m, 240);
+  auto brute = nnb::make_adapter("brute_force");
+  brute->build(model);
+  for (const auto& v : variants()) {
+    SCOPED_TRACE(v.label());
+    auto index = nnb::make_adapter(v.adapter, v.params);
+    index->build(model);
+    Neighbours expected, got;
+    for (int k : {1, 4, 40}) {
+      brute->knn(queries, k, expected);
+      index->knn(queries, k, got);
+      ASSERT_EQ("", exact_mismatch(model, queries, expected, got, true)) << "knn k=" << k;
+      for (double fraction : {0.0, 0.01, 0.1, 0.5}) {
+        const double max_dist_m = fraction * extent_m;
+        brute->ranged(queries, k, max_dist_m, expected);
+        index->ranged(queries, k, max_dist_m, got);
+        ASSERT_EQ("", exact_mismatch(model, queries, expected, got, true)) << "ranged k=" << k << " d=" << max_dist_m;
+      }
+    }
+    for (double fraction : {0.0, 0.02, 0.2}) {
+      brute->radius(queries, fraction * extent_m, expected);
+      index->radius(queries, fraction * extent_m, got);
+      ASSERT_EQ("", exact_mismatch(model, queries, expected, got, false)) << "radius " << fraction * extent_m;
+    }
+  }
+}
+
+TEST(OursExact, SphereAgainstBruteForce) { check_all(sphere(3000), 2.0); }
+TEST(OursExact, ManyDuplicatePoints) { check_all(with_duplicates(3000), 1.5); }
+TEST(OursExact, FlatCloud) { check_all(flat(3000), 2.0); }
+TEST(OursExact, CollinearCloud) { check_all(collinear(3000), 4.0); }
+TEST(OursExact, HugeCoordinates) { check_all(shifted(sphere(3000), 1.0, 1e6), 2.0); }
+TEST(OursExact, TinyExtents) { check_all(shifted(sphere(3000), 1e-6, 0.3), 2e-6); }
+TEST(OursExact, ClusterNoFloatCutSeparates) { check_all(unsplittable_cluster(2000), 2.0); }
+TEST(OursExact, HugeOffsetTinyExtent) { check_all(shifted(sphere(2000), 1e-3, -2e6), 2e-3); }
+
+TEST(OursExact, FloatAndDoubleAgreeWhereNotTied) {
+  const Cloud model = sphere(5000);
+  const Cloud queries = queries_for(model, 2.0, 400);
+  auto brute = nnb::make_adapter("brute_force");
+  brute->build(model);
+  Neighbours reference;
+  brute->knn(queries, 2, reference);
+  for (const char* adapter : {"ours_kdtree", "ours_octree"}) {
+    auto single = nnb::make_adapter(adapter, {{"scalar", "float"}});
+    auto twice = nnb::make_adapter(adapter, {{"scalar", "double"}});
+    single->build(model);
+    twice->build(model);
+    Neighbours a, b;
+    single->knn(queries, 1, a);
+    twice->knn(queries, 1, b);
+    std::size_t compared = 0;
+    for (std::size_t q = 0; q < static_cast<std::size_t>(queries.cols()); ++q) {
+      const std::size_t o = reference.offsets[q];
+      if (reference.sq_dists[o] == reference.sq_dists[o + 1]) continue;  // a tie: either index is right
+      ++compared;
+      EXPECT_EQ(a.indices[q], b.indices[q]) << adapter << " query " << q;
+      EXPECT_EQ(a.sq_dists[q], b.sq_dists[q]) << adapter << " query " << q;
+    }
+    EXPECT_GT(compared, static_cast<std::size_t>(queries.cols()) / 2);
+  }
+}
+
+// ---------- k-d tree invariants ----------
+
+template <typename T>
+void check_kdtree(const Cloud& model, int bucket) {
+  SCOPED_TRACE("bucket " + std::to_string(bucket));
+  ours::KdTree<T> tree;
+  tree.build(model.data(), static_cast<std::size_t>(model.cols()), bucket);
+  const auto& nodes = tree.nodes();
+  EXPECT_EQ(tree.node_bytes(), nodes.size() * 8u);
+  EXPECT_EQ(tree.index_bytes(), static_cast<std::size_t>(model.cols()) * 4u);
+  EXPECT_EQ(tree.point_copy_bytes(), static_cast<std::size_t>(model.cols()) * 3u * sizeof(T));
+  std::vector<int> times_seen(static_cast<std::size_t>(model.cols()), 0);
+  std::vector<int> slot_seen(static_cast<std::size_t>(model.cols()), 0);
+  // Walk the tree with each node's cell, checking that every leaf point lies inside its cell.
+  struct Frame {
+    std::uint32_t node;
+    std::array<T, 3> lo, hi;
+  };
+  const T inf = std::numeric_limits<T>::infinity();
+  std::vector<Frame> stack{{0, {-inf, -inf, -inf}, {inf, inf, inf}}};
+  std::size_t leaves = 0;
+  while (!stack.empty()) {
+    const Frame f = stack.back();
+    stack.pop_back();
+    ASSERT_LT(f.node, nodes.size());
+    const auto& node = nodes[f.node];
+    if (node.is_leaf()) {
+      ++leaves;
+      const std::uint32_t begin = node.bucket, count = node.right_or_size();
+      ASSERT_LE(begin + count, model.cols());
+      ASSERT_GE(count, 1u);
+      for (std::uint32_t i = begin; i < begin + count; ++i) {
+        ++slot_seen[i];
+        const std::uint32_t original = tree.indices()[i];
+        ++times_seen[original];
+        for (int d = 0; d < 3; ++d) {
+          const T v = tree.points()[3 * i + d];
+          EXPECT_EQ(v, T(model(d, original) - (std::is_same_v<T, float> ? tree.origin()[d] : 0.0)));
+          EXPECT_GE(v, f.lo[d]);
+          EXPECT_LE(v, f.hi[d]);
+        }
+      }
+      if (count > static_cast<std::uint32_t>(bucket)) {
+        // Only allowed when the bucket cannot be split: on every axis its points are equal, or no
+        // float plane lies between them (tiny extents far from the origin).
+        for (int d = 0; d < 3; ++d) {
+          T lo = tree.points()[3 * begin + d], hi = lo;
+          for (std::uint32_t i = begin + 1; i < begin + count; ++i) {
+            lo = std::min(lo, tree.points()[3 * i + d]);
+            hi = std::max(hi, tree.points()[3 * i + d]);
+          }
+          // The lowest float plane at or above lo must lie above hi (floats in order: bisect).
+          std::int64_t a = -0x7f7fffff, b = 0x7f7fffff;
+          auto as_float = [](std::int64_t key) {
+            const std::uint32_t bits = key < 0 ? (std::uint32_t(-key) | 0x80000000u) : std::uint32_t(key);
+            float f;
+            std::memcpy(&f, &bits, sizeof f);
+            return f;
+          };
+          while (a < b) {
+            const std::int64_t mid = a + (b - a) / 2;
+            if (tree.plane(d, as_float(mid)) >= lo) b = mid;
+            else a = mid + 1;
+          }
+          EXPECT_TRUE(lo == hi || tree.plane(d, as_float(a)) > hi)
+              << "an oversized bucket that a float plane could split on axis " << d;
+        }
+      }
+      continue;
+    }
+    Frame left = f, right = f;
+    left.node = f.node + 1;
+    left.hi[node.dim()] = tree.plane(node.dim(), node.cut);
+    right.node = node.right_or_size();
+    right.lo[node.dim()] = tree.plane(node.dim(), node.cut);
+    ASSERT_GT(right.node, left.node);
+    stack.push_back(left);
+    stack.push_back(right);
+  }
+  EXPECT_EQ(nodes.size(), 2 * leaves - 1);
+  for (std::size_t i = 0; i < times_seen.size(); ++i) {
+    ASSERT_EQ(times_seen[i], 1) << "point " << i;
+    ASSERT_EQ(slot_seen[i], 1) << "slot " << i;
+  }
+}
+
+TEST(OursKdTree, Invariants) {
+  for (const Cloud& c : {sphere(5000), with_duplicates(3000), flat(2000), collinear(2000),
+                         shifted(sphere(2000), 1.0, 1e6), shifted(sphere(2000), 1e-6, 0.0),
+                         unsplittable_cluster(2000)}) {
+    for (int bucket : {1, 2, 8, 5000}) {
+      check_kdtree<float>(c, bucket);
+      check_kdtree<double>(c, bucket);
+    }
+  }
+}
+
+TEST(OursKdTree, ClusterNoFloatCutSeparatesStaysOneBucket) {
+  const Cloud c = unsplittable_cluster(2000);
+  ours::KdTree<double> tree;
+  tree.build(c.data(), 2000, 8);
+  std::uint32_t largest = 0;
+  for (const auto& node : tree.nodes()) {
+    if (node.is_leaf()) largest = std::max(largest, node.right_or_size());
+  }
+  EXPECT_EQ(largest, 100u);  // the cluster, whole; everything else in buckets of at most 8
+}
+
+TEST(OursKdTree, NodesAreEightBytes) {
+  EXPECT_EQ(sizeof(ours::KdTree<float>::Node), 8u);
+  EXPECT_EQ(sizeof(ours::KdTree<double>::Node), 8u);
+  EXPECT_EQ(sizeof(ours::Octree<float>::Node), 8u);
+  EXPECT_EQ(sizeof(ours::Octree<double>::Node), 8u);
+}
+
+// ---------- octree invariants ----------
+
+template <typename T>
+void check_octree(const Cloud& model, int max_points, double min_cell_m) {
+  SCOPED_TRACE("max points " + std::to_string(max_points) + ", min cell " + std::to_string(min_cell_m));
+  using Tree = ours::Octree<T>;
+  Tree tree;
+  tree.build(model.data(), static_cast<std::size_t>(model.cols()), max_points, min_cell_m);
+  const auto& nodes = tree.nodes();
+  EXPECT_EQ(tree.node_bytes(), nodes.size() * 8u);
+  EXPECT_EQ(tree.point_copy_bytes(), static_cast<std::size_t>(model.cols()) * 3u * sizeof(T));
+  std::vector<int> times_seen(static_cast<std::size_t>(model.cols()), 0);
+  std::vector<int> slot_seen(static_cast<std::size_t>(model.cols()), 0);
+  std::vector<char> node_seen(nodes.size(), 0);
+  auto check_leaf = [&](const typename Tree::Node& leaf, const std::array<std::uint32_t, 3>& base, int level) {
+    ASSERT_GE(leaf.word, 1u);
+    ASSERT_LE(leaf.first + leaf.word, model.cols());
+    const std::uint32_t size = 1u << (Tree::kMaxLevel - level);
+    for (std::uint32_t i = leaf.first; i < leaf.first + leaf.word; ++i) {
+      ++slot_seen[i];
+      const std::uint32_t original = tree.indices()[i];
+      ++times_seen[original];
+      for (int d = 0; d < 3; ++d) {
+        const std::uint32_t cell = tree.to_int(d, model(d, original));
+        EXPECT_GE(cell, base[d]);
+        EXPECT_LT(cell, base[d] + size);
+        // The cell in metres, with a margin for the rounding of the integer mapping.
+        const double unit_m = tree.side_m() / double(1u << Tree::kMaxLevel);
+        const double lo_m = tree.cube_lo()[d] + base[d] * unit_m, hi_m = lo_m + size * unit_m;
+        const double margin = unit_m * 1e-6 + 1e-15 * std::abs(model(d, original));
+        EXPECT_GE(model(d, original), lo_m - margin);
+        EXPECT_LE(model(d, original), hi_m + margin);
+      }
+    }
+    const double cell_m = tree.side_m() / double(1u << level);
+    if (leaf.word > static_cast<std::uint32_t>(max_points)) {
+      EXPECT_TRUE(level == Tree::kMaxLevel || cell_m / 2 < min_cell_m) << "leaf of " << leaf.word << " points";
+    }
+  };
+  if (tree.root_is_leaf()) {
+    check_leaf(nodes[0], {0, 0, 0}, 0);
+  } else {
+    struct Frame {
+      std::uint32_t node;
+      std::array<std::uint32_t, 3> base;
+      int level;
+    };
+    std::vector<Frame> stack{{0, {0, 0, 0}, 0}};
+    node_seen[0] = 1;
+    while (!stack.empty()) {
+      const Frame f = stack.back();
+      stack.pop_back();
+      const auto& node = nodes[f.node];
+      ASSERT_NE(node.valid(), 0u);
+      ASSERT_EQ(node.leaves() & ~node.valid(), 0u);
+      const std::uint32_t half = 1u << (Tree::kMaxLevel - f.level - 1);
+      std::uint32_t slot = node.first;
+      for (unsigned j = 0; j < 8; ++j) {
+        if (!(node.valid() & (1u << j))) continue;
+        ASSERT_LT(slot, nodes.size());
+        ASSERT_EQ(node_seen[slot], 0) << "node reached twice";
+        node_seen[slot] = 1;
+        std::array<std::uint32_t, 3> base = f.base;
+        for (int d = 0; d < 3; ++d) base[d] += ((j >> d) & 1u) ? half : 0;
+        if (node.leaves() & (1u << j)) check_leaf(nodes[slot], base, f.level + 1);
+        else stack.push_back({slot, base, f.level + 1});
+        ++slot;
+      }
+    }
+    for (std::size_t i = 0; i < node_seen.size(); ++i) ASSERT_EQ(node_seen[i], 1) << "unreachable node " << i;
+  }
+  for (std::size_t i = 0; i < times_seen.size(); ++i) {
+    ASSERT_EQ(times_seen[i], 1) << "point " << i;
+    ASSERT_EQ(slot_seen[i], 1) << "slot " << i;
+  }
+}
+
+TEST(OursOctree, Invariants) {
+  for (const Cloud& c : {sphere(5000), with_duplicates(3000), flat(2000), collinear(2000),
+                         shifted(sphere(2000), 1.0, 1e6), shifted(sphere(2000), 1e-6, 0.0)}) {
+    for (int leaf : {1, 2, 8, 5000}) {
+      check_octree<float>(c, leaf, 0.0);
+      check_octree<double>(c, leaf, 0.0);
+    }
+    check_octree<double>(c, 1, 0.1);
+  }
+}
+
+// ---------- adapters ----------
+
+TEST(OursAdapters, IndexBytesCountNodesIndicesAndCopies) {
+  const Cloud model = sphere(4000);
+  auto kd = nnb::make_adapter("ours_kdtree", {{"scalar", "float"}, {"bucket_size", "8"}});
+  kd->build(model);
+  ours::KdTree<float> tree;
+  tree.build(model.data(), 4000, 8);
+  EXPECT_EQ(kd->index_bytes(), tree.nodes().size() * 8 + 4000 * 4 + 4000 * 12);
+  auto oc = nnb::make_adapter("ours_octree", {{"scalar", "double"}, {"max_points_per_leaf", "8"}});
+  oc->build(model);
+  ours::Octree<double> octree;
+  octree.build(model.data(), 4000, 8, 0.0);
+  EXPECT_EQ(oc->index_bytes(), octree.nodes().size() * 8 + 4000 * 4 + 4000 * 24);
+}
+
+TEST(OursAdapters, BadParametersAreRefused) {
+  EXPECT_THROW(nnb::make_adapter("ours_kdtree", {{"bucket_size", "0"}}), nnb::InputError);
+  EXPECT_THROW(nnb::make_adapter("ours_kdtree", {{"scalar", "half"}}), nnb::InputError);
+  EXPECT_THROW(nnb::make_adapter("ours_kdtree", {{"leaf", "3"}}), nnb::InputError);
+  EXPECT_THROW(nnb::make_adapter("ours_octree", {{"max_points_per_leaf", "x"}}), nnb::InputError);
+  EXPECT_THROW(nnb::make_adapter("ours_octree", {{"min_cell_size_m", "-1"}}), nnb::InputError);
+}
+
+}  // namespace
