@@ -223,6 +223,21 @@ TEST_P(EdgeCase, MaxDistZeroWithQueriesEqualToModel) {
   for (double sq : got.sq_dists) ASSERT_EQ(sq, 0.0);
 }
 
+TEST_P(EdgeCase, NearTieBeyondFloatPrecision) {
+  // Two candidates 1 m and 1 m + 3 nm from the query: float cannot tell them apart, an exact search must.
+  // Far points widen the bounding box so that float rounding is about 1e-7 of a 10 m extent.
+  const Cloud model = points({{0, 1.0 + 3e-9, 0}, {1.0, 0, 0}, {0, 0, 1.0 + 6e-9}, {10, 10, 10}, {-10, -10, -10}});
+  const Cloud queries = points({{0, 0, 0}});
+  expect_same_as_brute_force(model, queries, 1, 1.0 + 1e-9);
+  expect_same_as_brute_force(model, queries, 2, 1.0 + 4e-9);
+  auto index = nnb::make_adapter(GetParam());
+  index->build(model);
+  Neighbours got;
+  index->knn(queries, 1, got);
+  ASSERT_EQ(got.count(0), 1u);
+  EXPECT_EQ(got.indices[0], 1u) << nnb::testing::row_text(got, 0);
+}
+
 TEST_P(EdgeCase, EmptyModelIsRefused) {
   auto index = nnb::make_adapter(GetParam());
   EXPECT_THROW(index->build(Cloud(3, 0)), nnb::InputError);

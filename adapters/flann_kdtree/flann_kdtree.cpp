@@ -6,6 +6,7 @@
 #include <flann/algorithms/kdtree_single_index.h>
 #include <flann/config.h>
 
+#include "../float_libs/exact_knn.hpp"
 #include "../float_libs/float_frame.hpp"
 #include "nnb/registry.hpp"
 
@@ -16,6 +17,21 @@ namespace nnb::adapters {
 namespace {
 
 using FlannTree = flann::KDTreeSingleIndex<flann::L2_Simple<float>>;
+
+// FLANN's radius rule (d^2 < r^2, float), appending straight into a row of model indices.
+class RadiusRow final : public flann::ResultSet<float> {
+ public:
+  RadiusRow(float sq_radius_m2, std::vector<PointIndex>& row) : sq_radius_m2_(sq_radius_m2), row_(row) {}
+  bool full() const override { return true; }
+  float worstDist() const override { return sq_radius_m2_; }
+  void addPoint(float sq_dist_m2, std::size_t index) override {
+    if (sq_dist_m2 < sq_radius_m2_) row_.push_back(static_cast<PointIndex>(index));
+  }
+
+ private:
+  float sq_radius_m2_;
+  std::vector<PointIndex>& row_;
+};
 
 class FlannKdTree final : public SearchIndex {
  public:
@@ -51,7 +67,8 @@ class FlannKdTree final : public SearchIndex {
     info.notes =
         "FLANN keeps d^2 < r^2 in float (drops points at r, finds nothing at r=0): float coordinates "
         "relative to the model's bounding-box centre, radius searched wider by 1e-5 + 1e-6 of the coordinates, "
-        "distances recomputed in double and cut at <= r; k-NN rows re-sorted by double distance; single core";
+        "distances recomputed in double and cut at <= r; k-NN asks k+1 and, when the (k+1)-th is within float error of "
+        "the k-th, adds a radius search so near-ties resolve as in double; single core";
     return info;
   }
 
@@ -77,47 +94,49 @@ class FlannKdTree final : public SearchIndex {
 
   void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
     const auto n_queries = static_cast<std::size_t>(queries.cols());
-    const std::size_t kk = std::min(static_cast<std::size_t>(k), model_size());
+    const std::size_t asked = float_knn_candidates(static_cast<std::size_t>(k), model_size());
     std::vector<float> query_points(n_queries * 3);
     for (std::size_t q = 0; q < n_queries; ++q) {
       const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
       for (int d = 0; d < 3; ++d) query_points[q * 3 + d] = frame_.coord(query, d);
     }
-    std::vector<std::size_t> indices(n_queries * kk, static_cast<std::size_t>(-1));
-    std::vector<float> sq_dists(n_queries * kk);
-    flann::Matrix<std::size_t> index_matrix(indices.data(), n_queries, kk);
-    flann::Matrix<float> dist_matrix(sq_dists.data(), n_queries, kk);
-    tree_->knnSearch(flann::Matrix<float>(query_points.data(), n_queries, 3), index_matrix, dist_matrix, kk,
-                     exact_single_core(true));
-    out.reset(n_queries, n_queries * kk);
-    for (std::size_t q = 0; q < n_queries; ++q) {
-      for (std::size_t j = 0; j < kk; ++j) {
-        const std::size_t index = indices[q * kk + j];
-        if (index < model_size()) out.push(static_cast<PointIndex>(index), 0.0);
+    std::vector<std::size_t> indices(n_queries * asked, static_cast<std::size_t>(-1));
+    std::vector<float> sq_dists(n_queries * asked);
+    flann::Matrix<std::size_t> index_matrix(indices.data(), n_queries, asked);
+    flann::Matrix<float> dist_matrix(sq_dists.data(), n_queries, asked);
+    tree_->knnSearch(flann::Matrix<float>(query_points.data(), n_queries, 3), index_matrix, dist_matrix, asked,
+                     exact_single_core(false));
+    const auto knn_row = [&](std::size_t q, std::size_t n, FloatCandidates& row) {
+      row.indices.clear();
+      row.sq_dists_m2.clear();
+      for (std::size_t j = q * n; j < (q + 1) * n; ++j) {
+        if (indices[j] >= model_size()) continue;  // FLANN leaves -1 where it found nothing
+        row.indices.push_back(static_cast<PointIndex>(indices[j]));
+        row.sq_dists_m2.push_back(sq_dists[j]);
       }
-      out.end_query();
-    }
-    // Float distances can order near-ties differently from double: recompute, then sort by (sq_dist, index).
-    recompute_sq_dists(*model_, queries, out);
-    sort_and_truncate(kk, out);
+    };
+    const auto radius_row = [&](std::size_t q, double search_m, std::vector<PointIndex>& row) {
+      radius_candidates(queries.col(static_cast<Eigen::Index>(q)).data(), search_m, row);
+    };
+    exact_knn(*model_, queries, static_cast<std::size_t>(k), frame_, knn_row, radius_row, out);
+  }
+
+  /// Every point closer than search_m (metres) to query in FLANN's float distance, into row.
+  void radius_candidates(const double* query, double search_m, std::vector<PointIndex>& row) const {
+    const float query_f[3] = {frame_.coord(query, 0), frame_.coord(query, 1), frame_.coord(query, 2)};
+    row.clear();
+    RadiusRow result(static_cast<float>(search_m * search_m), row);
+    tree_->findNeighbors(result, query_f, exact_single_core(false));
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
-    const auto params = exact_single_core(false);
     const auto n_queries = static_cast<std::size_t>(queries.cols());
     out.reset(n_queries);
-    std::vector<std::size_t> indices;
-    std::vector<float> sq_dists;
+    std::vector<PointIndex> row;
     for (std::size_t q = 0; q < n_queries; ++q) {
       const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
-      const float query_f[3] = {frame_.coord(query, 0), frame_.coord(query, 1), frame_.coord(query, 2)};
-      const double search_m = frame_.search_radius_m(query, radius_m);
-      flann::RadiusResultSet<float> result(static_cast<float>(search_m * search_m));
-      tree_->findNeighbors(result, query_f, params);
-      indices.resize(result.size());
-      sq_dists.resize(result.size());
-      result.copy(indices.data(), sq_dists.data(), indices.size(), false);
-      for (const std::size_t index : indices) out.push(static_cast<PointIndex>(index), 0.0);
+      radius_candidates(query, frame_.search_radius_m(query, radius_m), row);
+      for (const PointIndex index : row) out.push(index, 0.0);
       out.end_query();
     }
     recompute_sq_dists(*model_, queries, out);

@@ -3,7 +3,7 @@
 // bounding-box centre (so that float keeps ~1e-7 of the cloud's extent, not of its distance from the
 // origin, which matters for georeferenced scans), and the radius to search with so that float
 // rounding never loses a point that counts in double. Results are then recomputed in double and
-// filtered by the exact rule (recompute_sq_dists + filter_by_sq_dist).
+// filtered by the exact rule (recompute_sq_dists + filter_by_sq_dist); k-NN is made exact in exact_knn.hpp.
 #include "nnb/cloud.hpp"
 
 #include <algorithm>
@@ -33,6 +33,12 @@ class FloatFrame {
                                                std::abs(query[2] - origin_[2])});
     const double magnitude_m = std::max(model_magnitude_m_, query_magnitude_m);
     return radius_m * (1.0 + 1e-5) + 1e-6 * magnitude_m + 1e-12;
+  }
+
+  /// Whether every point at float distance >= float_dist_m (metres) from query lies beyond radius_m in
+  /// double: the converse of search_radius_m, with the same error bound.
+  bool surely_beyond(const double* query, double float_dist_m, double radius_m) const {
+    return float_dist_m > search_radius_m(query, radius_m);
   }
 
  private:

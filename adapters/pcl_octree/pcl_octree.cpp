@@ -6,6 +6,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include "../float_libs/exact_knn.hpp"
 #include "../float_libs/float_frame.hpp"
 #include "nnb/registry.hpp"
 
@@ -84,8 +85,9 @@ class PclOctree final : public SearchIndex {
                       "relative to the bounding-box centre, distance recomputed in double"
                     : "PCL keeps d^2 <= r^2 but prunes voxels by float centres (misses coincident points at r=0): "
                       "float coordinates relative to the model's bounding-box centre, radius searched wider by "
-                      "1e-5 + 1e-6 of the coordinates, distances recomputed in double and cut at <= r; k-NN rows "
-                      "re-sorted by double distance; resolution_m=0 picks voxels holding ~leaf_points points";
+                      "1e-5 + 1e-6 of the coordinates, distances recomputed in double and cut at <= r; k-NN asks "
+                      "k+1 and, when the (k+1)-th is within float error of the k-th, adds a radius search so "
+                      "near-ties resolve as in double; resolution_m=0 picks voxels holding ~leaf_points points";
     return info;
   }
 
@@ -130,17 +132,23 @@ class PclOctree final : public SearchIndex {
       recompute_sq_dists(*model_, queries, out);
       return;
     }
-    const auto kk = static_cast<pcl::uindex_t>(std::min<std::size_t>(static_cast<std::size_t>(k), model_size()));
-    out.reset(n_queries, n_queries * kk);
+    exact_pcl_knn(queries, k, out);
+  }
+
+  /// Exact k-NN from PCL's float k+1 nearest, completed by a radius search on near-ties (exact_knn.hpp).
+  void exact_pcl_knn(const Cloud& queries, int k, Neighbours& out) const {
     pcl::Indices indices;
     std::vector<float> sq_dists;
-    for (Eigen::Index q = 0; q < queries.cols(); ++q) {
-      octree_->nearestKSearch(to_pcl(queries.col(q).data()), kk, indices, sq_dists);
-      for (const auto index : indices) out.push(static_cast<PointIndex>(index), 0.0);
-      out.end_query();
-    }
-    recompute_sq_dists(*model_, queries, out);
-    sort_and_truncate(kk, out);
+    const auto knn_row = [&](std::size_t q, std::size_t n, FloatCandidates& row) {
+      octree_->nearestKSearch(to_pcl(queries.col(static_cast<Eigen::Index>(q)).data()), static_cast<pcl::uindex_t>(n),
+                              indices, row.sq_dists_m2);
+      row.indices.assign(indices.begin(), indices.end());
+    };
+    const auto radius_row = [&](std::size_t q, double search_m, std::vector<PointIndex>& row) {
+      octree_->radiusSearch(to_pcl(queries.col(static_cast<Eigen::Index>(q)).data()), search_m, indices, sq_dists, 0);
+      row.assign(indices.begin(), indices.end());
+    };
+    exact_knn(*model_, queries, static_cast<std::size_t>(k), frame_, knn_row, radius_row, out);
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
