@@ -11,7 +11,9 @@ BEST_COUNT = 5
 
 
 def is_bucket_run(run):
-    return run.experiment == "icp_bucket" or (run.experiment != "icp_real" and run.bucket_size is not None)
+    if run.experiment:  # run_icp names its experiment: icp_bucket (or a variant such as icp_bucket_coarse), icp_real
+        return run.experiment.startswith("icp_bucket")
+    return run.bucket_size is not None
 
 
 def icp_label(adapter, search, results):

@@ -195,7 +195,7 @@ def load(paths):
             elif kind == "build":
                 _read_build(results, rec)
             elif kind == "icp":
-                _read_icp(results, rec, context.get("experiment"))
+                _read_icp(results, rec, context.get("experiment") or context.get("nnb_experiment"))
     results.sweep = _one_k(_last_wins(results.sweep, lambda c: (c.model, c.query, c.adapter, c.search, c.max_dist_m, c.k)))
     return results
 
