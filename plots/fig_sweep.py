@@ -96,11 +96,12 @@ def best_keys(results, count=BEST_COUNT):
     """The `count` adapter+kind series of lowest mean rank over every swept cell of the 4x4 grid.
 
     A skipped or missing cell ranks last; k-NN (recorded once) counts at every distance; brute force is a
-    reference and never among the best."""
+    reference and approximate adapters answer another question: neither is ever among the best."""
+    approximate = {name for name, info in results.adapters.items() if info.get("exact") is False}
     ranks = {}
     for model in SHAPES:
         for query in SHAPES:
-            series = {k: v for k, v in sweep_series(results, model, query).items() if k[0] != "brute_force"}
+            series = {k: v for k, v in sweep_series(results, model, query).items() if k[0] != "brute_force" and k[0] not in approximate}
             for d in {c.max_dist_m for cells in series.values() for c in cells if c.max_dist_m is not None}:
                 times = {}
                 for key, cells in series.items():
