@@ -6,8 +6,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
-#include "../float_libs/exact_knn.hpp"
-#include "../float_libs/float_frame.hpp"
+#include "../float_libs/pcl_search.hpp"
 #include "nnb/registry.hpp"
 
 #include <cmath>
@@ -105,16 +104,12 @@ class PclOctree final : public SearchIndex {
     cloud_ = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
     cloud_->resize(static_cast<std::size_t>(model.cols()));
     for (Eigen::Index i = 0; i < model.cols(); ++i) {
-      (*cloud_)[static_cast<std::size_t>(i)] = to_pcl(model.col(i).data());
+      (*cloud_)[static_cast<std::size_t>(i)] = to_pcl(frame_, model.col(i).data());
     }
     model_ = &model;
     octree_ = std::make_unique<Octree>(resolution_m);
     octree_->setInputCloud(cloud_);
     octree_->addPointsFromInputCloud();
-  }
-
-  pcl::PointXYZ to_pcl(const double* p) const {
-    return pcl::PointXYZ(frame_.coord(p, 0), frame_.coord(p, 1), frame_.coord(p, 2));
   }
 
   void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
@@ -125,44 +120,18 @@ class PclOctree final : public SearchIndex {
       for (Eigen::Index q = 0; q < queries.cols(); ++q) {
         pcl::index_t index = -1;
         float sq_dist = 0.0f;
-        octree_->approxNearestSearch(to_pcl(queries.col(q).data()), index, sq_dist);
+        octree_->approxNearestSearch(to_pcl(frame_, queries.col(q).data()), index, sq_dist);
         if (index >= 0) out.push(static_cast<PointIndex>(index), 0.0);
         out.end_query();
       }
       recompute_sq_dists(*model_, queries, out);
       return;
     }
-    exact_pcl_knn(queries, k, out);
-  }
-
-  /// Exact k-NN from PCL's float k+1 nearest, completed by a radius search on near-ties (exact_knn.hpp).
-  void exact_pcl_knn(const Cloud& queries, int k, Neighbours& out) const {
-    pcl::Indices indices;
-    std::vector<float> sq_dists;
-    const auto knn_row = [&](std::size_t q, std::size_t n, FloatCandidates& row) {
-      octree_->nearestKSearch(to_pcl(queries.col(static_cast<Eigen::Index>(q)).data()), static_cast<pcl::uindex_t>(n),
-                              indices, row.sq_dists_m2);
-      row.indices.assign(indices.begin(), indices.end());
-    };
-    const auto radius_row = [&](std::size_t q, double search_m, std::vector<PointIndex>& row) {
-      octree_->radiusSearch(to_pcl(queries.col(static_cast<Eigen::Index>(q)).data()), search_m, indices, sq_dists, 0);
-      row.assign(indices.begin(), indices.end());
-    };
-    exact_knn(*model_, queries, static_cast<std::size_t>(k), frame_, knn_row, radius_row, out);
+    pcl_exact_knn(*octree_, frame_, *model_, queries, k, out);
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
-    out.reset(static_cast<std::size_t>(queries.cols()));
-    pcl::Indices indices;
-    std::vector<float> sq_dists;
-    for (Eigen::Index q = 0; q < queries.cols(); ++q) {
-      const double* query = queries.col(q).data();
-      octree_->radiusSearch(to_pcl(query), frame_.search_radius_m(query, radius_m), indices, sq_dists, 0);
-      for (const auto index : indices) out.push(static_cast<PointIndex>(index), 0.0);
-      out.end_query();
-    }
-    recompute_sq_dists(*model_, queries, out);
-    filter_by_sq_dist(radius_m * radius_m, out);
+    pcl_exact_radius(*octree_, frame_, *model_, queries, radius_m, out);
   }
 
   bool approximate_;
