@@ -233,7 +233,7 @@ void check_kdtree(const Cloud& model, int bucket) {
         const std::uint32_t original = tree.indices()[i];
         ++times_seen[original];
         for (int d = 0; d < 3; ++d) {
-          const T v = tree.points()[3 * i + d];
+          const T v = tree.coord(i, d);
           EXPECT_EQ(v, T(model(d, original) - (std::is_same_v<T, float> ? tree.origin()[d] : 0.0)));
           EXPECT_GE(v, f.lo[d]);
           EXPECT_LE(v, f.hi[d]);
@@ -243,10 +243,10 @@ void check_kdtree(const Cloud& model, int bucket) {
         // Only allowed when the bucket cannot be split: on every axis its points are equal, or no
         // float plane lies between them (tiny extents far from the origin).
         for (int d = 0; d < 3; ++d) {
-          T lo = tree.points()[3 * begin + d], hi = lo;
+          T lo = tree.coord(begin, d), hi = lo;
           for (std::uint32_t i = begin + 1; i < begin + count; ++i) {
-            lo = std::min(lo, tree.points()[3 * i + d]);
-            hi = std::max(hi, tree.points()[3 * i + d]);
+            lo = std::min(lo, tree.coord(i, d));
+            hi = std::max(hi, tree.coord(i, d));
           }
           // The lowest float plane at or above lo must lie above hi (floats in order: bisect).
           std::int64_t a = -0x7f7fffff, b = 0x7f7fffff;

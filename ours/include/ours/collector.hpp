@@ -15,7 +15,66 @@
 #include <type_traits>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace ours {
+
+/// Points are scanned in blocks of at most this many: distances first (vectorised), then the collector.
+constexpr std::uint32_t kScanBlock = 64;
+
+/// Writes the squared distances (m^2, in T) from q to m <= kScanBlock points given as separate x, y, z
+/// arrays into sq, and returns their minimum. Each is computed as nnb::sq_dist_m2 computes it, so a
+/// double tree's distances stay bit-exact; only the minimum is taken with SSE2 (GCC does not vectorise
+/// a floating-point min reduction without -ffast-math).
+template <typename T>
+inline T block_sq_dists(const T* xs, const T* ys, const T* zs, std::uint32_t m, const std::array<T, 3>& q, T* sq) {
+  for (std::uint32_t i = 0; i < m; ++i) {
+    const T dx = q[0] - xs[i];
+    const T dy = q[1] - ys[i];
+    const T dz = q[2] - zs[i];
+    sq[i] = dx * dx + dy * dy + dz * dz;
+  }
+  T best = std::numeric_limits<T>::infinity();
+  std::uint32_t i = 0;
+#if defined(__SSE2__)
+  if constexpr (std::is_same_v<T, double>) {
+    __m128d a = _mm_set1_pd(best), b = a;
+    for (; i + 4 <= m; i += 4) {
+      a = _mm_min_pd(a, _mm_loadu_pd(sq + i));
+      b = _mm_min_pd(b, _mm_loadu_pd(sq + i + 2));
+    }
+    a = _mm_min_pd(a, b);
+    best = std::min(_mm_cvtsd_f64(a), _mm_cvtsd_f64(_mm_unpackhi_pd(a, a)));
+  } else {
+    __m128 a = _mm_set1_ps(best), b = a;
+    for (; i + 8 <= m; i += 8) {
+      a = _mm_min_ps(a, _mm_loadu_ps(sq + i));
+      b = _mm_min_ps(b, _mm_loadu_ps(sq + i + 4));
+    }
+    alignas(16) float lanes[4];
+    _mm_store_ps(lanes, _mm_min_ps(a, b));
+    best = std::min(std::min(lanes[0], lanes[1]), std::min(lanes[2], lanes[3]));
+  }
+#endif
+  for (; i < m; ++i) best = std::min(best, sq[i]);
+  return best;
+}
+
+/// Offers points [begin, end) (tree order; coordinates as separate x, y, z arrays, model indices in
+/// indices) to collect, block by block: a block whose nearest point is beyond the bound costs one
+/// comparison.
+template <typename T, class Collect>
+inline void scan_points(const T* xs, const T* ys, const T* zs, const std::uint32_t* indices, std::uint32_t begin,
+                        std::uint32_t end, const std::array<T, 3>& q, Collect& collect) {
+  T sq[kScanBlock];
+  for (std::uint32_t at = begin; at < end; at += kScanBlock) {
+    const std::uint32_t m = std::min(kScanBlock, end - at);
+    const T nearest = block_sq_dists(xs + at, ys + at, zs + at, m, q, sq);
+    if (nearest <= collect.bound()) collect.offer_block(sq, indices + at, m, nearest);
+  }
+}
 
 /// One neighbour: its index in the model and its squared distance (square metres, in T).
 template <typename T>
@@ -100,6 +159,13 @@ class Collector {
     }
   }
 
+  /// Offers m points with squared distances sq (m^2) and model indices index.
+  void offer_block(const T* sq, const std::uint32_t* index, std::uint32_t m, T) {
+    for (std::uint32_t i = 0; i < m; ++i) {
+      if (sq[i] <= bound_) offer(sq[i], index[i]);
+    }
+  }
+
   /// Moves the answer into buffers.best, nearest first (float: plus every near miss, unsorted tail).
   void finish() {
     if constexpr (!Linear) std::sort_heap(best_.begin(), best_.end(), by_dist);
@@ -172,6 +238,12 @@ class NearestCollector {
     index_ = index;
     found_ = true;
   }
+  /// Offers m points whose smallest squared distance, nearest (m^2), the caller found <= bound().
+  void offer_block(const T* sq, const std::uint32_t* index, std::uint32_t m, T nearest) {
+    std::uint32_t i = 0;
+    while (i + 1 < m && sq[i] != nearest) ++i;
+    offer(nearest, index[i]);
+  }
   void finish() {
     if (found_) best_.push_back({bound_, index_});
   }
@@ -192,6 +264,11 @@ class RadiusCollector {
   }
   T bound() const { return limit_sq_; }
   void offer(T sq_dist, std::uint32_t index) { best_.push_back({sq_dist, index}); }
+  void offer_block(const T* sq, const std::uint32_t* index, std::uint32_t m, T) {
+    for (std::uint32_t i = 0; i < m; ++i) {
+      if (sq[i] <= limit_sq_) best_.push_back({sq[i], index[i]});
+    }
+  }
   void finish() {}
 
  private:

@@ -90,7 +90,7 @@ class KdTree {
     indices_.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
       indices_[i] = order[i];
-          for (int d = 0; d < 3; ++d) points_[3 * i + d] = work[3 * order[i] + d];
+      for (int d = 0; d < 3; ++d) points_[d * n + i] = work[3 * order[i] + d];
     }
     shrink_ = bound_shrink<T>(static_cast<int>(max_depth_));
   }
@@ -181,9 +181,9 @@ class KdTree {
   const std::vector<Node>& nodes() const { return nodes_; }
   /// Returns the model indices of the bucket entries, in tree order.
   const std::vector<std::uint32_t>& indices() const { return indices_; }
-  /// Returns the bucket coordinates (x,y,z in T; float: relative to origin(), double: as given), in
-  /// tree order.
-  const std::vector<T>& points() const { return points_; }
+  /// Returns coordinate d of bucket entry i (T; float: relative to origin(), double: as given). The
+  /// copies are kept in tree order as three arrays (all x, all y, all z), for vectorised bucket scans.
+  T coord(std::size_t i, int d) const { return points_[std::size_t(d) * n_ + i]; }
   /// Returns the origin (metres): the centre of the bounding box; cuts (and float coordinates) are
   /// stored relative to it.
   const std::array<double, 3>& origin() const { return origin_; }
@@ -411,14 +411,8 @@ class KdTree {
   void scan_bucket(const Node& leaf, const Query& q, Collect& collect) const {
     const std::uint32_t begin = leaf.bucket;
     const std::uint32_t end = begin + leaf.right_or_size();
-    const T* p = points_.data() + 3 * std::size_t(begin);
-    for (std::uint32_t i = begin; i < end; ++i, p += 3) {
-      const T dx = q.p[0] - p[0];
-      const T dy = q.p[1] - p[1];
-      const T dz = q.p[2] - p[2];
-      const T sq = dx * dx + dy * dy + dz * dz;
-      if (sq <= collect.bound()) collect.offer(sq, indices_[i]);
-    }
+    const T* xs = points_.data();
+    scan_points(xs, xs + n_, xs + 2 * n_, indices_.data(), begin, end, q.p, collect);
   }
 
   std::vector<Node> nodes_;

@@ -25,11 +25,14 @@
 
 namespace ours {
 
-/// Returns the number of set bits of an 8-bit mask (no libgcc call without -mpopcnt).
+/// Returns the number of set bits of an 8-bit mask (a table: no libgcc call without -mpopcnt).
 inline std::uint32_t popcount8(unsigned mask) {
-  mask = mask - ((mask >> 1) & 0x55u);
-  mask = (mask & 0x33u) + ((mask >> 2) & 0x33u);
-  return (mask + (mask >> 4)) & 0x0fu;
+  static constexpr auto kBits = [] {
+    std::array<std::uint8_t, 256> bits{};
+    for (unsigned i = 1; i < 256; ++i) bits[i] = static_cast<std::uint8_t>(bits[i >> 1] + (i & 1u));
+    return bits;
+  }();
+  return kBits[mask & 0xffu];
 }
 
 template <typename T>
@@ -97,35 +100,14 @@ class Octree {
     points_.resize(3 * n);
     indices_ = order;
     for (std::size_t i = 0; i < n; ++i) {
-      for (int d = 0; d < 3; ++d) points_[3 * i + d] = T(xyz[3 * order[i] + d] - origin_[d]);
+      for (int d = 0; d < 3; ++d) points_[d * n + i] = T(xyz[3 * order[i] + d] - origin_[d]);
     }
   }
 
   /// Returns the k nearest points within sq(max distance) limit_sq_m2 (m^2; infinity for plain k-NN),
   /// into buffers.best, nearest first. Float trees return a superset (see collector.hpp).
   void knn(const double* query, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
-    buffers.best.clear();
-    buffers.extras.clear();
-    if (n_ == 0 || k < 1) return;
-    const Query q = make_query(query);
-    const T limit = search_limit(limit_sq_m2, q.error);
-    if constexpr (!ErrorModel<T>::kConservative) {
-      if (k == 1) {
-        NearestCollector<T> nearest(buffers, limit);
-        search(q, nearest);
-        nearest.finish();
-        return;
-      }
-    }
-    if (k <= kLinearHeapMaxK) {
-      Collector<T, true> heap(buffers, k, limit, q.error);
-      search(q, heap);
-      heap.finish();
-    } else {
-      Collector<T, false> heap(buffers, k, limit, q.error);
-      search(q, heap);
-      heap.finish();
-    }
+    knn_batch(query, 1, k, limit_sq_m2, buffers, [](std::size_t, const std::vector<Neighbour<T>>&) {});
   }
 
   /// For each of n queries (x,y,z triples, metres) calls emit(i, buffers.best) with what knn() returns.
@@ -133,7 +115,8 @@ class Octree {
   void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
                  Emit&& emit) const {
     for (std::size_t i = 0; i < n; ++i) {
-      knn(xyz + 3 * i, k, limit_sq_m2, buffers);
+      const Query q = make_query(xyz + 3 * i);
+      knn_one(q, own_path(q), k, limit_sq_m2, buffers);
       emit(i, buffers.best);
     }
   }
@@ -145,7 +128,7 @@ class Octree {
     if (n_ == 0) return;
     const Query q = make_query(query);
     RadiusCollector<T> all(buffers, search_limit(limit_sq_m2, q.error));
-    search(q, all);
+    search(q, own_path(q), all);
   }
 
   /// Returns the nodes (node 0 is the root; a leaf root when root_is_leaf()).
@@ -153,8 +136,9 @@ class Octree {
   bool root_is_leaf() const { return root_is_leaf_; }
   /// Returns the model indices of the leaf points, in tree order.
   const std::vector<std::uint32_t>& indices() const { return indices_; }
-  /// Returns the leaf coordinates (x,y,z in T, relative to origin()), in tree order.
-  const std::vector<T>& points() const { return points_; }
+  /// Returns coordinate d of leaf entry i (T, relative to origin()). The copies are kept in tree order
+  /// as three arrays (all x, all y, all z), for vectorised leaf scans.
+  T coord(std::size_t i, int d) const { return points_[std::size_t(d) * n_ + i]; }
   /// Returns the origin (metres) that stored coordinates are relative to (zero for double).
   const std::array<double, 3>& origin() const { return origin_; }
   /// Returns the lowest corner of the root cube (metres).
@@ -163,10 +147,10 @@ class Octree {
   double side_m() const { return side_m_; }
   /// Returns the integer octree coordinate (0 .. 2^kMaxLevel - 1) of coordinate x (metres) on axis d.
   std::uint32_t to_int(int d, double x) const {
-    const double t = std::floor((x - cube_lo_[d]) * scale_);
+    const double t = (x - cube_lo_[d]) * scale_;
     if (!(t > 0)) return 0;
     if (t >= double((1u << kMaxLevel) - 1)) return (1u << kMaxLevel) - 1;
-    return static_cast<std::uint32_t>(t);
+    return static_cast<std::uint32_t>(t);  // truncation is the floor here (t > 0), without a libm call
   }
   /// Returns bytes of the nodes.
   std::size_t node_bytes() const { return nodes_.size() * sizeof(Node); }
@@ -250,14 +234,21 @@ class Octree {
     return q;
   }
 
-  // The box of every point whose distance (in T) could be <= bound: conservative by the float slack
-  // and by the rounding of q +- r, so that the monotone to_int() keeps every such point inside.
-  void update_box(const Query& q, T bound, Box& box) const {
+  // The ball of every point whose distance (in T) could be <= bound, in squared integer units rounded
+  // up: conservative by the float slack.
+  void update_ball(const Query& q, T bound, Box& box) const {
     box.bound = double(bound);
     const double b = double(bound) + double(q.error.slack(bound));
     const double units2 = b * scale_ * scale_;
     box.ball_units2 = !(units2 < 1e18) ? std::numeric_limits<std::uint64_t>::max()
                                        : static_cast<std::uint64_t>(std::ceil(units2 * (1 + 1e-9))) + 1;
+  }
+
+  // The ball and its integer box: conservative by the rounding of q +- r too, so that the monotone
+  // to_int() keeps every point of the ball inside the box.
+  void update_box(const Query& q, T bound, Box& box) const {
+    update_ball(q, bound, box);
+    const double b = double(bound) + double(q.error.slack(bound));
     if (!std::isfinite(b) || b >= 1e300) {
       box.lo = {0, 0, 0};
       box.hi = {(1u << kMaxLevel) - 1, (1u << kMaxLevel) - 1, (1u << kMaxLevel) - 1};
@@ -271,99 +262,148 @@ class Octree {
     }
   }
 
+  // What the descent to a query's own leaf found: no leaf (its cell is empty, or the tree is).
+  static constexpr std::uint32_t kNoLeaf = std::numeric_limits<std::uint32_t>::max();
+
+  // The path from the root towards the cell of a query's integer coordinate: inner nodes node[0..depth]
+  // (node[l] at level l), and the leaf below node[depth] holding that cell, or kNoLeaf when it is empty.
+  struct OwnPath {
+    std::array<std::uint32_t, kMaxLevel + 1> node;
+    int depth = -1;
+    std::uint32_t leaf = kNoLeaf;
+  };
+
+  void knn_one(const Query& q, const OwnPath& own, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+    buffers.best.clear();
+    buffers.extras.clear();
+    if (n_ == 0 || k < 1) return;
+    const T limit = search_limit(limit_sq_m2, q.error);
+    if constexpr (!ErrorModel<T>::kConservative) {
+      if (k == 1) {
+        NearestCollector<T> nearest(buffers, limit);
+        search(q, own, nearest);
+        nearest.finish();
+        return;
+      }
+    }
+    if (k <= kLinearHeapMaxK) {
+      Collector<T, true> heap(buffers, k, limit, q.error);
+      search(q, own, heap);
+      heap.finish();
+    } else {
+      Collector<T, false> heap(buffers, k, limit, q.error);
+      search(q, own, heap);
+      heap.finish();
+    }
+  }
+
+  // The own path of a query, by integer bits alone (Algorithm 1's "fast indexing").
+  OwnPath own_path(const Query& q) const {
+    OwnPath own;
+    if (n_ == 0 || root_is_leaf_) return own;
+    std::uint32_t index = 0;
+    for (int level = 0; level < kMaxLevel; ++level) {
+      const int shift = kMaxLevel - level - 1;
+      const Node node = nodes_[index];
+      const unsigned octant = ((q.cell[0] >> shift) & 1u) | (((q.cell[1] >> shift) & 1u) << 1) |
+                              (((q.cell[2] >> shift) & 1u) << 2);
+      own.node[level] = index;
+      own.depth = level;
+      if (!((node.valid() >> octant) & 1u)) break;
+      index = node.first + popcount8(node.valid() & ((1u << octant) - 1));
+      if ((node.leaves() >> octant) & 1u) {
+        own.leaf = index;
+        break;
+      }
+    }
+    return own;
+  }
+
+  // Algorithm 1 after a look at the query's own leaf: that leaf usually brings the bound, and with it
+  // the box, far below the limit. The deepest node containing the box is on the own path (the box holds
+  // the query), so it is read off the path instead of descended to again.
   template <class Collect>
-  void search(const Query& q, Collect& collect) const {
-    Box box;
-    update_box(q, collect.bound(), box);
+  void search(const Query& q, const OwnPath& own, Collect& collect) const {
     if (root_is_leaf_) {
       scan_leaf(nodes_[0], q, collect);
       return;
     }
-    // Algorithm 1: the deepest node containing the whole box, by integer bits alone.
+    if (own.leaf != kNoLeaf) scan_leaf(nodes_[own.leaf], q, collect);
+    Box box;
+    update_box(q, collect.bound(), box);
     std::uint32_t differ = 0;
     for (int d = 0; d < 3; ++d) differ |= box.lo[d] ^ box.hi[d];
     const int common = differ == 0 ? kMaxLevel : kMaxLevel - (32 - __builtin_clz(differ));
-    std::uint32_t index = 0;
-    int level = 0;
-    std::array<std::uint32_t, 3> base{0, 0, 0};
-    while (level < common) {
-      const Node node = nodes_[index];
-      const int shift = kMaxLevel - level - 1;
-      const unsigned j = ((box.lo[0] >> shift) & 1u) | (((box.lo[1] >> shift) & 1u) << 1) |
-                         (((box.lo[2] >> shift) & 1u) << 2);
-      if (!(node.valid() & (1u << j))) return;  // the box lies in an empty cell: no point within reach
-      const std::uint32_t child = node.first + popcount8(node.valid() & ((1u << j) - 1));
-      if (node.leaves() & (1u << j)) {
-        scan_leaf(nodes_[child], q, collect);
-        return;
-      }
-      for (int d = 0; d < 3; ++d) base[d] |= ((j >> d) & 1u) << shift;
-      index = child;
-      ++level;
-    }
-    search_node(index, level, base, q, box, collect);
+    // Deeper than the path: the box lies inside the own leaf (scanned) or an empty cell.
+    if (common > own.depth) return;
+    const std::uint32_t keep = ~((std::uint32_t(1) << (kMaxLevel - common)) - 1);
+    const std::array<std::uint32_t, 3> base{q.cell[0] & keep, q.cell[1] & keep, q.cell[2] & keep};
+    search_node(own.node[common], common, base, q, box, own.leaf, collect);
   }
 
-  // Algorithm 2, exact: the children are visited nearest first, ordered by a lower bound of their
-  // squared distance to the query in integer units (per axis the gap in units minus 2: one for the
-  // floor of the mapping, one for its rounding; also right for a query clamped onto the root cube).
-  // The first child beyond the current ball ends the node, as every later child is farther still.
+  // Algorithm 2, exact, with the paper's 96 traversal orders. Per axis, a child lies in the query's
+  // half (the near side) or in the other (the far side); its squared distance, in integer units, is the
+  // sum over axes of near or far parts, so with the three axes sorted by how much the far side adds
+  // (delta), the order  none, a, b, {c, ab}, ac, bc, abc  of far axes is nearest first: one of
+  // 8 x 6 x 2 sequences, chosen with three comparisons. Each gap is a lower bound (the gap in units
+  // minus 2: one for the floor of the mapping, one for its rounding; also right for a query clamped
+  // onto the root cube), and the first child beyond the current ball ends the node.
   template <class Collect>
   void search_node(std::uint32_t index, int level, const std::array<std::uint32_t, 3>& base, const Query& q, Box& box,
-                   Collect& collect) const {
+                   std::uint32_t scanned, Collect& collect) const {
     const Node node = nodes_[index];
     const std::uint32_t half = 1u << (kMaxLevel - level - 1);
-    // Squared gaps per axis to the lower (bit 0) and upper (bit 1) half of the cell.
-    std::array<std::array<std::uint64_t, 2>, 3> gap2;
+    auto lower_bound2 = [](std::uint32_t gap) {
+      const std::uint64_t g = gap > 2 ? gap - 2 : 0;
+      return g * g;
+    };
+    unsigned near_octant = 0;
+    std::uint64_t near_sum = 0;
+    std::array<std::uint64_t, 3> delta;
     for (int d = 0; d < 3; ++d) {
-      const std::uint32_t c = q.cell[d];
-      for (unsigned bit = 0; bit < 2; ++bit) {
-        const std::uint32_t lo = base[d] + (bit ? half : 0), hi = lo + (half - 1);
-        const std::uint32_t gap = c < lo ? lo - c : (c > hi ? c - hi : 0);
-        const std::uint64_t g = gap > 2 ? gap - 2 : 0;
-        gap2[d][bit] = g * g;
-      }
+      const std::uint32_t c = q.cell[d], mid = base[d] + half;
+      const bool upper = c >= mid;
+      // Gap to the query's own half of the cell (0 inside it), and to the other half.
+      const std::uint32_t own_lo = upper ? mid : base[d], own_hi = own_lo + (half - 1);
+      const std::uint32_t near_gap = c < own_lo ? own_lo - c : (c > own_hi ? c - own_hi : 0);
+      const std::uint32_t far_gap = upper ? c - (mid - 1) : mid - c;
+      const std::uint64_t near2 = lower_bound2(near_gap);
+      near_octant |= unsigned(upper) << d;
+      near_sum += near2;
+      delta[d] = lower_bound2(far_gap) - near2;
     }
-    std::array<std::uint64_t, 8> dist;
-    std::array<std::uint8_t, 8> order;
-    unsigned count = 0;
-    for (unsigned valid = node.valid(); valid != 0; valid &= valid - 1) {
-      const unsigned j = static_cast<unsigned>(__builtin_ctz(valid));
-      const std::uint64_t dj = gap2[0][j & 1u] + gap2[1][(j >> 1) & 1u] + gap2[2][(j >> 2) & 1u];
-      unsigned at = count++;
-      for (; at > 0 && dist[at - 1] > dj; --at) {
-        dist[at] = dist[at - 1];
-        order[at] = order[at - 1];
-      }
-      dist[at] = dj;
-      order[at] = static_cast<std::uint8_t>(j);
-    }
-    for (unsigned s = 0; s < count; ++s) {
-      if (dist[s] > box.ball_units2) return;
-      const unsigned j = order[s];
-      const std::uint32_t child = node.first + popcount8(node.valid() & ((1u << j) - 1));
+    // Sort the axes by delta (a <= b <= c), then look up the order of the children.
+    std::array<std::uint8_t, 3> axis{0, 1, 2};
+    if (delta[axis[1]] < delta[axis[0]]) std::swap(axis[0], axis[1]);
+    if (delta[axis[2]] < delta[axis[1]]) std::swap(axis[1], axis[2]);
+    if (delta[axis[1]] < delta[axis[0]]) std::swap(axis[0], axis[1]);
+    const unsigned a = 1u << axis[0], b = 1u << axis[1], c = 1u << axis[2];
+    const bool c_first = delta[axis[2]] <= delta[axis[0]] + delta[axis[1]];
+    const std::array<unsigned, 8> far_axes{0u, a, b, c_first ? c : a | b, c_first ? a | b : c, a | c, b | c, 7u};
+    const unsigned valid = node.valid();
+    for (const unsigned far : far_axes) {
+      const unsigned j = near_octant ^ far;
+      if (!(valid & (1u << j))) continue;
+      std::uint64_t dist = near_sum;
+      for (int d = 0; d < 3; ++d) dist += (far >> d) & 1u ? delta[d] : 0;
+      if (dist > box.ball_units2) return;
+      const std::uint32_t child = node.first + popcount8(valid & ((1u << j) - 1));
       if (node.leaves() & (1u << j)) {
+        if (child == scanned) continue;
         scan_leaf(nodes_[child], q, collect);
-        if (double(collect.bound()) < box.bound) update_box(q, collect.bound(), box);
+        if (double(collect.bound()) < box.bound) update_ball(q, collect.bound(), box);
       } else {
         std::array<std::uint32_t, 3> child_base;
         for (int d = 0; d < 3; ++d) child_base[d] = base[d] + (((j >> d) & 1u) ? half : 0);
-        search_node(child, level + 1, child_base, q, box, collect);
+        search_node(child, level + 1, child_base, q, box, scanned, collect);
       }
     }
   }
 
   template <class Collect>
   void scan_leaf(const Node& leaf, const Query& q, Collect& collect) const {
-    const T* p = points_.data() + 3 * std::size_t(leaf.first);
-    const std::uint32_t end = leaf.first + leaf.word;
-    for (std::uint32_t i = leaf.first; i < end; ++i, p += 3) {
-      const T dx = q.p[0] - p[0];
-      const T dy = q.p[1] - p[1];
-      const T dz = q.p[2] - p[2];
-      const T sq = dx * dx + dy * dy + dz * dz;
-      if (sq <= collect.bound()) collect.offer(sq, indices_[i]);
-    }
+    const T* xs = points_.data();
+    scan_points(xs, xs + n_, xs + 2 * n_, indices_.data(), leaf.first, leaf.first + leaf.word, q.p, collect);
   }
 
   std::vector<Node> nodes_;
