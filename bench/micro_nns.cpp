@@ -128,7 +128,7 @@ std::vector<Subject> subjects() {
   }
   if (have("ours_octree")) {
     all.push_back({"ours_octree[float,p32]", "ours_octree", {{"scalar", "float"}, {"max_points_per_leaf", "32"}}});
-    for (const char* leaf : {"16", "32", "48", "96", "128"}) {
+    for (const char* leaf : {"16", "32", "48", "64", "96", "128"}) {
       all.push_back({std::string("ours_octree[p") + leaf + "]", "ours_octree", {{"max_points_per_leaf", leaf}}});
     }
   }
