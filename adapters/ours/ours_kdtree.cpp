@@ -5,8 +5,6 @@
 #include "ours/kdtree.hpp"
 #include "ours_rows.hpp"
 
-#include <limits>
-
 namespace nnb::adapters {
 namespace {
 
@@ -14,17 +12,10 @@ namespace {
 // than libnabo's 5 pay off here.
 constexpr int kDefaultBucketSize = 32;
 
-class OursKdTree final : public SearchIndex {
+class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
  public:
-  explicit OursKdTree(const Params& params) : SearchIndex(describe(params)) {
-    bucket_size_ = std::stoi(info().params.at("bucket_size"));
-    use_float_ = info().params.at("scalar") == "float";
-  }
-
-  std::size_t index_bytes() const override {
-    return use_float_ ? float_.node_bytes() + float_.index_bytes() + float_.point_copy_bytes()
-                      : double_.node_bytes() + double_.index_bytes() + double_.point_copy_bytes();
-  }
+  explicit OursKdTree(const Params& params)
+      : OursIndex(describe(params)), bucket_size_(std::stoi(info().params.at("bucket_size"))) {}
 
  private:
   static AdapterInfo describe(const Params& params) {
@@ -46,32 +37,10 @@ class OursKdTree final : public SearchIndex {
   }
 
   void do_build(const Cloud& model) override {
-    model_ = &model;
-    const auto n = static_cast<std::size_t>(model.cols());
-    if (use_float_) float_.build(model.data(), n, bucket_size_);
-    else double_.build(model.data(), n, bucket_size_);
+    build_tree(model, [&](auto& tree, const double* xyz, std::size_t n) { tree.build(xyz, n, bucket_size_); });
   }
 
-  void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
-    do_ranged(queries, k, std::numeric_limits<double>::infinity(), out);
-  }
-
-  void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
-    const double limit_sq_m2 = max_dist_m * max_dist_m;
-    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, k, limit_sq_m2, out);
-    else ours_rows::ranged<double>(double_, *model_, queries, k, limit_sq_m2, out);
-  }
-
-  void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
-    if (use_float_) ours_rows::radius<float>(float_, *model_, queries, radius_m, out);
-    else ours_rows::radius<double>(double_, *model_, queries, radius_m, out);
-  }
-
-  const Cloud* model_ = nullptr;
-  int bucket_size_ = kDefaultBucketSize;
-  bool use_float_ = false;
-  ours::KdTree<float> float_;
-  ours::KdTree<double> double_;
+  int bucket_size_;
 };
 
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -60,5 +61,49 @@ void radius(const Tree& tree, const Cloud& model, const Cloud& queries, double r
     out.end_query();
   }
 }
+
+/// What ours_kdtree and ours_octree share: one tree per scalar (the "scalar" parameter picks one), the
+/// index bytes, and the searches; each adapter adds its description and how it builds its tree.
+template <template <typename> class Tree>
+class OursIndex : public SearchIndex {
+ public:
+  explicit OursIndex(AdapterInfo info) : SearchIndex(std::move(info)), use_float_(this->info().params.at("scalar") == "float") {}
+
+  std::size_t index_bytes() const override {
+    return use_float_ ? float_.node_bytes() + float_.index_bytes() + float_.point_copy_bytes()
+                      : double_.node_bytes() + double_.index_bytes() + double_.point_copy_bytes();
+  }
+
+ protected:
+  /// Calls build(tree, xyz, n) on the tree of the chosen scalar.
+  template <class Build>
+  void build_tree(const Cloud& model, Build&& build) {
+    model_ = &model;
+    const auto n = static_cast<std::size_t>(model.cols());
+    if (use_float_) build(float_, model.data(), n);
+    else build(double_, model.data(), n);
+  }
+
+  void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
+    do_ranged(queries, k, std::numeric_limits<double>::infinity(), out);
+  }
+
+  void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
+    const double limit_sq_m2 = max_dist_m * max_dist_m;
+    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, k, limit_sq_m2, out);
+    else ours_rows::ranged<double>(double_, *model_, queries, k, limit_sq_m2, out);
+  }
+
+  void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
+    if (use_float_) ours_rows::radius<float>(float_, *model_, queries, radius_m, out);
+    else ours_rows::radius<double>(double_, *model_, queries, radius_m, out);
+  }
+
+ private:
+  const Cloud* model_ = nullptr;
+  bool use_float_ = false;
+  Tree<float> float_;
+  Tree<double> double_;
+};
 
 }  // namespace nnb::adapters::ours_rows
