@@ -29,25 +29,31 @@ constexpr std::uint32_t kScanBlock = 64;
 /// double tree's distances stay bit-exact; only the minimum is taken with SSE2 (GCC does not vectorise
 /// a floating-point min reduction without -ffast-math).
 template <typename T>
-inline T block_sq_dists(const T* xs, const T* ys, const T* zs, std::uint32_t m, const std::array<T, 3>& q, T* sq) {
-  for (std::uint32_t i = 0; i < m; ++i) {
-    const T dx = q[0] - xs[i];
-    const T dy = q[1] - ys[i];
-    const T dz = q[2] - zs[i];
-    sq[i] = dx * dx + dy * dy + dz * dz;
-  }
+inline T block_sq_dists(const T* xs, const T* ys, const T* zs, std::uint32_t m, const std::array<T, 3>& q,
+                        T* __restrict sq) {
   T best = std::numeric_limits<T>::infinity();
   std::uint32_t i = 0;
 #if defined(__SSE2__)
   if constexpr (std::is_same_v<T, double>) {
-    __m128d a = _mm_set1_pd(best), b = a;
-    for (; i + 4 <= m; i += 4) {
-      a = _mm_min_pd(a, _mm_loadu_pd(sq + i));
-      b = _mm_min_pd(b, _mm_loadu_pd(sq + i + 2));
+    // One pass: distances, stored, and their running minimum, two points at a time.
+    const __m128d qx = _mm_set1_pd(q[0]), qy = _mm_set1_pd(q[1]), qz = _mm_set1_pd(q[2]);
+    __m128d low = _mm_set1_pd(best);
+    for (; i + 2 <= m; i += 2) {
+      const __m128d dx = _mm_sub_pd(qx, _mm_loadu_pd(xs + i));
+      const __m128d dy = _mm_sub_pd(qy, _mm_loadu_pd(ys + i));
+      const __m128d dz = _mm_sub_pd(qz, _mm_loadu_pd(zs + i));
+      const __m128d d2 = _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)), _mm_mul_pd(dz, dz));
+      _mm_storeu_pd(sq + i, d2);
+      low = _mm_min_pd(low, d2);
     }
-    a = _mm_min_pd(a, b);
-    best = std::min(_mm_cvtsd_f64(a), _mm_cvtsd_f64(_mm_unpackhi_pd(a, a)));
+    best = std::min(_mm_cvtsd_f64(low), _mm_cvtsd_f64(_mm_unpackhi_pd(low, low)));
   } else {
+    for (std::uint32_t j = 0; j < m; ++j) {
+      const T dx = q[0] - xs[j];
+      const T dy = q[1] - ys[j];
+      const T dz = q[2] - zs[j];
+      sq[j] = dx * dx + dy * dy + dz * dz;
+    }
     __m128 a = _mm_set1_ps(best), b = a;
     for (; i + 8 <= m; i += 8) {
       a = _mm_min_ps(a, _mm_loadu_ps(sq + i));
@@ -56,10 +62,38 @@ inline T block_sq_dists(const T* xs, const T* ys, const T* zs, std::uint32_t m, 
     alignas(16) float lanes[4];
     _mm_store_ps(lanes, _mm_min_ps(a, b));
     best = std::min(std::min(lanes[0], lanes[1]), std::min(lanes[2], lanes[3]));
+    for (; i < m; ++i) best = std::min(best, sq[i]);
+    return best;
   }
 #endif
-  for (; i < m; ++i) best = std::min(best, sq[i]);
+  for (; i < m; ++i) {
+    const T dx = q[0] - xs[i];
+    const T dy = q[1] - ys[i];
+    const T dz = q[2] - zs[i];
+    sq[i] = dx * dx + dy * dy + dz * dz;
+    best = std::min(best, sq[i]);
+  }
   return best;
+}
+
+/// Returns the position of the first of sq[0, m) equal to value (m when none is).
+template <typename T>
+inline std::uint32_t find_first(const T* sq, std::uint32_t m, T value) {
+  std::uint32_t i = 0;
+#if defined(__SSE2__)
+  if constexpr (std::is_same_v<T, double>) {
+    const __m128d v = _mm_set1_pd(value);
+    for (; i + 4 <= m; i += 4) {
+      const int mask = _mm_movemask_pd(_mm_cmpeq_pd(_mm_loadu_pd(sq + i), v)) |
+                       (_mm_movemask_pd(_mm_cmpeq_pd(_mm_loadu_pd(sq + i + 2), v)) << 2);
+      if (mask != 0) return i + static_cast<std::uint32_t>(__builtin_ctz(static_cast<unsigned>(mask)));
+    }
+  }
+#endif
+  for (; i < m; ++i) {
+    if (sq[i] == value) return i;
+  }
+  return m;
 }
 
 /// Offers points [begin, end) (tree order; coordinates as separate x, y, z arrays, model indices in
@@ -240,9 +274,7 @@ class NearestCollector {
   }
   /// Offers m points whose smallest squared distance, nearest (m^2), the caller found <= bound().
   void offer_block(const T* sq, const std::uint32_t* index, std::uint32_t m, T nearest) {
-    std::uint32_t i = 0;
-    while (i + 1 < m && sq[i] != nearest) ++i;
-    offer(nearest, index[i]);
+    offer(nearest, index[std::min(find_first(sq, m, nearest), m - 1)]);
   }
   void finish() {
     if (found_) best_.push_back({bound_, index_});
