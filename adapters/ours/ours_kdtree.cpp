@@ -24,16 +24,9 @@ class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
     info.library = "ours (this project, after libnabo)";
     info.version = "1";
     info.structure = "k-d tree";
-    info.knn = Strategy::native;
-    info.radius = Strategy::native;
-    info.ranged = Strategy::native;
     ParamReader reader(info.name, params);
     reader.get_int("bucket_size", kDefaultBucketSize, 1, 1 << 20);
-    info.scalar = reader.get_choice("scalar", "double", {"float", "double"});
-    info.params = reader.finish();
-    info.notes = info.scalar == "float" ? "float search widened by its rounding bound, refined in double"
-                                        : "distances computed as sq_dist_m2, bit-exact";
-    return info;
+    return shared_info(std::move(info), reader);
   }
 
   void do_build(const Cloud& model) override {

@@ -26,17 +26,10 @@ class OursOctree final : public ours_rows::OursIndex<ours::Octree> {
     info.library = "ours (this project, after 3DTK)";
     info.version = "1";
     info.structure = "octree";
-    info.knn = Strategy::native;
-    info.radius = Strategy::native;
-    info.ranged = Strategy::native;
     ParamReader reader(info.name, params);
     reader.get_int("max_points_per_leaf", kDefaultMaxPoints, 1, 1 << 20);
     reader.get_double("min_cell_size_m", 0.0, 0.0, 1e9);
-    info.scalar = reader.get_choice("scalar", "double", {"float", "double"});
-    info.params = reader.finish();
-    info.notes = info.scalar == "float" ? "float search widened by its rounding bound, refined in double"
-                                        : "distances computed as sq_dist_m2, bit-exact";
-    return info;
+    return shared_info(std::move(info), reader);
   }
 
   void do_build(const Cloud& model) override {

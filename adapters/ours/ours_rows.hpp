@@ -67,6 +67,19 @@ void radius(const Tree& tree, const Cloud& model, const Cloud& queries, double r
 template <template <typename> class Tree>
 class OursIndex : public SearchIndex {
  public:
+  /// Completes an adapter's description with what both share: native searches, the "scalar" parameter
+  /// (read last from reader, after the adapter's own) and the notes on exactness.
+  static AdapterInfo shared_info(AdapterInfo info, ParamReader& reader) {
+    info.knn = Strategy::native;
+    info.radius = Strategy::native;
+    info.ranged = Strategy::native;
+    info.scalar = reader.get_choice("scalar", "double", {"float", "double"});
+    info.params = reader.finish();
+    info.notes = info.scalar == "float" ? "float search widened by its rounding bound, refined in double"
+                                        : "distances computed as sq_dist_m2, bit-exact";
+    return info;
+  }
+
   explicit OursIndex(AdapterInfo info) : SearchIndex(std::move(info)), use_float_(this->info().params.at("scalar") == "float") {}
 
   std::size_t index_bytes() const override {
