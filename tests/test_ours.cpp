@@ -87,6 +87,35 @@ Cloud queries_for(const Cloud& model, double extent_m, std::size_t n) {
   return q;
 }
 
+// The same queries as a scanner would deliver them, one after the other along the surface: sorted by
+// their Morton code on a 1024^3 grid over their bounds.
+Cloud in_scan_order(const Cloud& queries) {
+  const Eigen::Vector3d lo = queries.rowwise().minCoeff(), hi = queries.rowwise().maxCoeff();
+  std::vector<std::pair<std::uint64_t, Eigen::Index>> keyed;
+  for (Eigen::Index i = 0; i < queries.cols(); ++i) {
+    std::uint64_t code = 0;
+    for (int bit = 9; bit >= 0; --bit) {
+      for (int d = 0; d < 3; ++d) {
+        const double unit = (queries(d, i) - lo[d]) / std::max(hi[d] - lo[d], 1e-300);
+        code = (code << 1) | ((static_cast<std::uint64_t>(unit * 1023.0) >> bit) & 1u);
+      }
+    }
+    keyed.emplace_back(code, i);
+  }
+  std::sort(keyed.begin(), keyed.end());
+  Cloud sorted(3, queries.cols());
+  for (Eigen::Index i = 0; i < queries.cols(); ++i) sorted.col(i) = queries.col(keyed[static_cast<std::size_t>(i)].second);
+  return sorted;
+}
+
+// Scan-ordered queries, then the same in random order: the k-d tree's search switches from reusing the
+// last descent to descending from the root and back.
+Cloud scan_then_random(const Cloud& queries) {
+  Cloud both(3, 2 * queries.cols());
+  both << in_scan_order(queries), queries;
+  return both;
+}
+
 // ---------- exact comparison ----------
 
 // Both answers, row by row: same counts and the very same sorted distances (bit for bit).
@@ -134,7 +163,7 @@ std::vector<Variant> variants() {
 
 // Every variant, every query kind, against brute force; the limits scale with the cloud's extent.
 void check_all(const Cloud& model, double extent_m) {
-  const Cloud queries = queries_for(model, extent_m, 240);
+  const Cloud queries = scan_then_random(queries_for(model, extent_m, 240));
   auto brute = nnb::make_adapter("brute_force");
   brute->build(model);
   for (const auto& v : variants()) {
@@ -290,6 +319,55 @@ TEST(OursKdTree, Invariants) {
     for (int bucket : {1, 2, 8, 5000}) {
       check_kdtree<float>(c, bucket);
       check_kdtree<double>(c, bucket);
+    }
+  }
+}
+
+// Queries in scan order take the search that starts from the last descent, random ones do not, and both
+// answer as single queries (each descending from the root) do, to the bit.
+template <typename T>
+void check_descent_reuse(const Cloud& model, int bucket, int k, double limit_sq_m2) {
+  SCOPED_TRACE("bucket " + std::to_string(bucket) + ", k " + std::to_string(k) + ", limit^2 " + std::to_string(limit_sq_m2));
+  ours::KdTree<T> tree;
+  tree.build(model.data(), static_cast<std::size_t>(model.cols()), bucket);
+  // A scan: every model point, a little off, in scan order; and random queries, near and far.
+  std::mt19937_64 rng(13);
+  std::normal_distribution<double> jitter(0, 1e-3);
+  Cloud near = model;
+  for (Eigen::Index i = 0; i < near.cols(); ++i) near.col(i) += Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng));
+  const Cloud scan = in_scan_order(near);
+  const Cloud random = queries_for(model, 2.0, 2000);
+  ours::SearchBuffers<T> batch_buffers, single_buffers;
+  for (const Cloud* queries : {&scan, &random}) {
+    const std::size_t n = static_cast<std::size_t>(queries->cols());
+    std::size_t differ = 0;
+    const std::size_t reused = tree.knn_batch(queries->data(), n, k, limit_sq_m2, batch_buffers,
+                                              [&](std::size_t i, const std::vector<ours::Neighbour<T>>& got) {
+      tree.knn(queries->data() + 3 * i, k, limit_sq_m2, single_buffers);
+      const auto& want = single_buffers.best;
+      bool same = got.size() == want.size();
+      for (std::size_t j = 0; same && j < got.size(); ++j) same = got[j].sq_dist == want[j].sq_dist;
+      differ += same ? 0 : 1;
+    });
+    EXPECT_EQ(differ, 0u) << (queries == &scan ? "scan order" : "random order");
+    // Buckets of one point rarely hold two queries in a row: only larger ones must reuse.
+    if (queries == &random) {
+      EXPECT_LT(reused, n / 10) << "random queries should descend from the root";
+    } else if (bucket >= 8) {
+      EXPECT_GT(reused, n / 2) << "scan-ordered queries should reuse the last descent";
+    }
+  }
+}
+
+TEST(OursKdTree, ScanOrderedQueriesReuseTheLastDescent) {
+  for (const Cloud& c : {sphere(20000), with_duplicates(3000)}) {
+    for (int bucket : {1, 8, 32}) {
+      for (int k : {1, 5, 40}) {
+        for (double limit_sq_m2 : {0.0, 0.01, 0.25, std::numeric_limits<double>::infinity()}) {
+          check_descent_reuse<double>(c, bucket, k, limit_sq_m2);
+          check_descent_reuse<float>(c, bucket, k, limit_sq_m2);
+        }
+      }
     }
   }
 }

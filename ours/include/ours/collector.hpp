@@ -125,12 +125,23 @@ struct PendingCell {
   std::uint32_t node;
 };
 
+/// One split node on the k-d tree's first descent of a query, kept for the next query.
+template <typename T>
+struct DescentStep {
+  T plane;             ///< the split plane (T, tree coordinates)
+  std::uint32_t node;  ///< the split node
+  std::uint32_t far;   ///< its child the query did not descend into
+  std::uint32_t dim;   ///< the split axis
+  bool right;          ///< whether the query went to the right child (coordinate > plane)
+};
+
 /// Reusable per-caller buffers, so that a batch of queries allocates nothing per query.
 template <typename T>
 struct SearchBuffers {
   std::vector<Neighbour<T>> best;       ///< the k best so far
   std::vector<Neighbour<T>> extras;     ///< float only: near misses that may still belong to the answer
   std::vector<PendingCell<T>> pending;  ///< the k-d tree's explicit stack (one entry per level at most)
+  std::vector<DescentStep<T>> path;     ///< the k-d tree's last first descent (one entry per level)
 };
 
 /// Linear heaps pay O(k) per insertion with a tiny constant; the paper found them faster up to k = 30.

@@ -16,6 +16,8 @@
 // Search: Algorithm 3 with an explicit stack of pending far cells. With random queries the descent
 // from the root is a chain of dependent loads and unpredictable branches; knn_batch() therefore runs
 // the first descents of kBatch queries interleaved and branch-free, so that their chains overlap.
+// Queries in scan order (a laser scan's points, one after the other) mostly fall in the previous
+// query's leaf: knn_batch() then starts each search from the previous query's descent instead.
 #include "ours/collector.hpp"
 
 #include <algorithm>
@@ -111,54 +113,62 @@ class KdTree {
   }
 
   /// For each of n queries (x,y,z triples, metres) calls emit(i, buffers.best) with the k nearest
-  /// points within limit_sq_m2 (m^2) of query i, nearest first (float: a superset). The descents
-  /// from the root run kBatch queries at a time, interleaved; the rest of each search runs alone.
+  /// points within limit_sq_m2 (m^2) of query i, nearest first (float: a superset).
+  ///
+  /// Two ways to the first leaf, chosen batch by batch from how the last kBatch queries fell; both are
+  /// exact and give the same answers. Queries in random order descend from the root kBatch at a time,
+  /// interleaved. Queries in scan order (most of them in the previous query's leaf) reuse the previous
+  /// query's descent instead: the shared part of the path costs no node loads, and a query inside the
+  /// previous leaf's cell scans that leaf at once and stops there when its ball lies inside the cell.
+  /// Returns how many queries took the second way.
   template <class Emit>
-  void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
+  std::size_t knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
                  Emit&& emit) const {
     if (n_ == 0 || k < 1) {
       buffers.best.clear();
       for (std::size_t i = 0; i < n; ++i) emit(i, buffers.best);
-      return;
+      return 0;
     }
     const std::size_t stride = max_depth_ + 2;
     if (buffers.pending.size() < kBatch * stride) buffers.pending.resize(kBatch * stride);
+    if (buffers.path.size() < stride) buffers.path.resize(stride);
+    std::size_t reused = 0;
+    LastDescent last;
+    bool in_order = false;
     for (std::size_t first = 0; first < n; first += kBatch) {
       const std::size_t m = std::min(kBatch, n - first);
-      Descents batch;
-      for (std::size_t j = 0; j < m; ++j) {
-        batch.q[j] = make_query(xyz + 3 * (first + j));
-        batch.limit[j] = search_limit(limit_sq_m2, batch.q[j].error);
-        batch.top[j] = buffers.pending.data() + j * stride;
-      }
-      descend(batch, m);
-      for (std::size_t j = 0; j < m; ++j) {
-        const Query& q = batch.q[j];
-        PendingCell<T>* const bottom = buffers.pending.data() + j * stride;
-        buffers.best.clear();
-        buffers.extras.clear();
-        auto finish_search = [&](auto& collect) {
-          search_from(q, collect, batch.leaf[j], bottom, batch.top[j]);
-          collect.finish();
-        };
-        if constexpr (!ErrorModel<T>::kConservative) {
-          if (k == 1) {
-            NearestCollector<T> nearest(buffers, batch.limit[j]);
-            finish_search(nearest);
-            emit(first + j, buffers.best);
-            continue;
-          }
+      std::size_t same_leaf = 0;
+      if (in_order) {
+        reused += m;
+        for (std::size_t j = 0; j < m; ++j) {
+          const Query q = make_query(xyz + 3 * (first + j));
+          with_collector(q, k, limit_sq_m2, buffers, [&](auto& collect) {
+            same_leaf += search_after_last(q, collect, buffers, last) ? 1 : 0;
+          });
+          emit(first + j, buffers.best);
         }
-        if (k <= kLinearHeapMaxK) {
-          Collector<T, true> heap(buffers, k, batch.limit[j], q.error);
-          finish_search(heap);
-        } else {
-          Collector<T, false> heap(buffers, k, batch.limit[j], q.error);
-          finish_search(heap);
+      } else {
+        Descents batch;
+        for (std::size_t j = 0; j < m; ++j) {
+          batch.q[j] = make_query(xyz + 3 * (first + j));
+          batch.limit[j] = search_limit(limit_sq_m2, batch.q[j].error);
+          batch.top[j] = buffers.pending.data() + j * stride;
         }
-        emit(first + j, buffers.best);
+        descend(batch, m);
+        for (std::size_t j = 0; j < m; ++j) {
+          same_leaf += batch.leaf[j] == (j > 0 ? batch.leaf[j - 1] : last.leaf) ? 1 : 0;
+          PendingCell<T>* const bottom = buffers.pending.data() + j * stride;
+          with_collector(batch.q[j], k, limit_sq_m2, buffers, [&](auto& collect) {
+            search_from(batch.q[j], collect, batch.leaf[j], bottom, batch.top[j]);
+          });
+          emit(first + j, buffers.best);
+        }
+        last.leaf = batch.leaf[m - 1];
+        last.valid = false;  // no path recorded: the next in-order query descends from the root
       }
+      in_order = 2 * same_leaf >= m;
     }
+    return reused;
   }
 
   /// Returns every point within sq(radius) limit_sq_m2 (m^2) in buffers.best, in tree order
@@ -329,6 +339,112 @@ class KdTree {
     build_node(pts, order, split, end, right_lo, hi, depth + 1);
   }
 
+  // The previous in-order query's first descent: its steps are in buffers.path[0, depth), its leaf's
+  // cell is lo < p <= hi (a right child holds the coordinates above its plane).
+  struct LastDescent {
+    bool valid = false;
+    std::uint32_t depth = 0;
+    std::uint32_t leaf = std::numeric_limits<std::uint32_t>::max();
+    std::array<T, 3> lo, hi;
+  };
+
+  // Runs search(collect) with the collector for k (as Algorithm 3's heaps) and finishes it into
+  // buffers.best.
+  template <class Search>
+  static void with_collector(const Query& q, int k, double limit_sq_m2, SearchBuffers<T>& buffers, Search&& search) {
+    buffers.best.clear();
+    buffers.extras.clear();
+    const T limit = search_limit(limit_sq_m2, q.error);
+    if constexpr (!ErrorModel<T>::kConservative) {
+      if (k == 1) {
+        NearestCollector<T> nearest(buffers, limit);
+        search(nearest);
+        nearest.finish();
+        return;
+      }
+    }
+    if (k <= kLinearHeapMaxK) {
+      Collector<T, true> heap(buffers, k, limit, q.error);
+      search(heap);
+      heap.finish();
+    } else {
+      Collector<T, false> heap(buffers, k, limit, q.error);
+      search(heap);
+      heap.finish();
+    }
+  }
+
+  // Pushes the far child of a first-descent step when it lies within the bound (offsets: that one axis).
+  void push_far(const DescentStep<T>& step, T offset, T bound, PendingCell<T>*& top) const {
+    if (offset * offset * shrink_ <= bound) {
+      top->offsets = {0, 0, 0};
+      top->offsets[step.dim] = offset;
+      top->sq_dist = offset * offset;
+      top->node = step.far;
+      ++top;
+    }
+  }
+
+  // Algorithm 3 for one query, starting from the previous query's first descent (last). Inside the
+  // previous leaf's cell the path is the same: scan the leaf, and stop when the ball of the bound lies
+  // inside the cell (every far child along the path is then beyond it too). Otherwise the path is the
+  // same down to the first step the query leaves: far children within the bound are pushed from the
+  // recorded planes, and the descent goes on from that node and is recorded. Returns whether the query
+  // lay in the previous leaf.
+  template <class Collect>
+  bool search_after_last(const Query& q, Collect& collect, SearchBuffers<T>& buffers, LastDescent& last) const {
+    DescentStep<T>* const path = buffers.path.data();
+    PendingCell<T>* const bottom = buffers.pending.data();
+    PendingCell<T>* top = bottom;
+    if (last.valid && q.p[0] > last.lo[0] && q.p[0] <= last.hi[0] && q.p[1] > last.lo[1] && q.p[1] <= last.hi[1] &&
+        q.p[2] > last.lo[2] && q.p[2] <= last.hi[2]) {
+      scan_bucket(nodes_[last.leaf], q, collect);
+      T wall = std::numeric_limits<T>::infinity();
+      for (int d = 0; d < 3; ++d) wall = std::min({wall, q.p[d] - last.lo[d], last.hi[d] - q.p[d]});
+      if (wall * wall * shrink_ > collect.bound()) return true;
+      for (std::uint32_t l = 0; l < last.depth; ++l) {
+        push_far(path[l], q.p[path[l].dim] - path[l].plane, collect.bound(), top);
+      }
+      search_pending(q, collect, bottom, top);
+      return true;
+    }
+    const T limit = collect.bound();
+    std::uint32_t level = 0;
+    std::uint32_t index = 0;
+    if (last.valid) {
+      for (; level < last.depth; ++level) {
+        const T offset = q.p[path[level].dim] - path[level].plane;
+        if ((offset > 0) != path[level].right) break;
+        push_far(path[level], offset, limit, top);
+      }
+      index = level < last.depth ? path[level].node : last.leaf;
+    }
+    Node node = nodes_[index];
+    while (!node.is_leaf()) {
+      DescentStep<T>& step = path[level++];
+      step.dim = node.dim();
+      step.plane = plane(step.dim, node.cut);
+      step.node = index;
+      const T offset = q.p[step.dim] - step.plane;
+      step.right = offset > 0;
+      step.far = step.right ? index + 1 : node.right_or_size();
+      push_far(step, offset, limit, top);
+      index = step.right ? node.right_or_size() : index + 1;
+      node = nodes_[index];
+    }
+    last.valid = true;
+    last.depth = level;
+    last.leaf = index;
+    last.lo.fill(-std::numeric_limits<T>::infinity());
+    last.hi.fill(std::numeric_limits<T>::infinity());
+    for (std::uint32_t l = 0; l < level; ++l) {
+      if (path[l].right) last.lo[path[l].dim] = std::max(last.lo[path[l].dim], path[l].plane);
+      else last.hi[path[l].dim] = std::min(last.hi[path[l].dim], path[l].plane);
+    }
+    search_from(q, collect, index, bottom, top);
+    return false;
+  }
+
   // Up to kBatch searches between their first descent and the rest.
   struct Descents {
     std::array<Query, kBatch> q;
@@ -379,9 +495,13 @@ class KdTree {
   template <class Collect>
   void search_from(const Query& q, Collect& collect, std::uint32_t leaf, PendingCell<T>* const bottom,
                    PendingCell<T>* top) const {
-    Node node = nodes_[leaf];
+    scan_bucket(nodes_[leaf], q, collect);
+    search_pending(q, collect, bottom, top);
+  }
+
+  template <class Collect>
+  void search_pending(const Query& q, Collect& collect, PendingCell<T>* const bottom, PendingCell<T>* top) const {
     for (;;) {
-      scan_bucket(node, q, collect);
       do {
         if (top == bottom) return;
         --top;
@@ -389,7 +509,7 @@ class KdTree {
       std::array<T, 3> offsets = top->offsets;
       const T rd = top->sq_dist;
       std::uint32_t index = top->node;
-      node = nodes_[index];
+      Node node = nodes_[index];
       while (!node.is_leaf()) {
         const unsigned dim = node.dim();
         const T new_off = q.p[dim] - plane(dim, node.cut);
@@ -404,6 +524,7 @@ class KdTree {
         index = go_right ? right : index + 1;
         node = nodes_[index];
       }
+      scan_bucket(node, q, collect);
     }
   }
 
