@@ -7,8 +7,8 @@
 namespace nnb::adapters {
 namespace {
 
-// Measured on both pairs of bench/micro_nns: 64 is faster at 0.02 m, 96-128 at 0.3-1 m; 80 keeps every
-// distance within 1.3x of the k-d tree.
+// Measured on both pairs of bench/micro_nns: 64 is the fastest at 0.02 m, 96-128 at 0.3-1 m; 80 keeps
+// every distance within 1.2x of the k-d tree.
 constexpr int kDefaultMaxPoints = 80;
 
 class OursOctree final : public ours_rows::OursIndex<ours::Octree> {

@@ -10,7 +10,8 @@
 // integer octree coordinates; the search descends directly to the deepest node that contains the box
 // (Algorithm 1), then visits children nearest first (Algorithm 2), ordered by a lower bound of their
 // distance in integer units, and leaves a node at its first child beyond the ball. Floating point is
-// used in leaves, and to shrink the ball when a leaf improved the bound.
+// used in leaves, and to shrink the ball when a leaf improved the bound. In a batch, the path to each
+// query's own leaf starts from the previous query's: scan-ordered queries mostly share all of it.
 #include "ours/collector.hpp"
 
 #include <algorithm>
@@ -114,9 +115,11 @@ class Octree {
   template <class Emit>
   void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
                  Emit&& emit) const {
+    OwnPath own;  // each query's path starts from the previous one's (see follow_own_path)
     for (std::size_t i = 0; i < n; ++i) {
       const Query q = make_query(xyz + 3 * i);
-      knn_one(q, own_path(q), k, limit_sq_m2, buffers);
+      follow_own_path(q, own);
+      knn_one(q, own, k, limit_sq_m2, buffers);
       emit(i, buffers.best);
     }
   }
@@ -128,7 +131,9 @@ class Octree {
     if (n_ == 0) return;
     const Query q = make_query(query);
     RadiusCollector<T> all(buffers, search_limit(limit_sq_m2, q.error));
-    search(q, own_path(q), all);
+    OwnPath own;
+    follow_own_path(q, own);
+    search(q, own, all);
   }
 
   /// Returns the nodes (node 0 is the root; a leaf root when root_is_leaf()).
@@ -244,21 +249,25 @@ class Octree {
                                        : static_cast<std::uint64_t>(std::ceil(units2 * (1 + 1e-9))) + 1;
   }
 
-  // The ball and its integer box: conservative by the rounding of q +- r too, so that the monotone
-  // to_int() keeps every point of the ball inside the box.
+  // The ball and its integer box, as the query's cell +- the radius in whole units: to_int(q +- r) lies
+  // within cell +- (floor(r * scale) + 2) (one unit for each floor, one for the rounding of q - lo, with
+  // q's own rounding in r), and clamping only moves the cell towards the cube, so the box holds every
+  // point of the ball.
   void update_box(const Query& q, T bound, Box& box) const {
     update_ball(q, bound, box);
+    constexpr std::uint32_t kTop = (1u << kMaxLevel) - 1;
     const double b = double(bound) + double(q.error.slack(bound));
-    if (!std::isfinite(b) || b >= 1e300) {
+    const double magnitude = std::max({std::abs(q.q[0]), std::abs(q.q[1]), std::abs(q.q[2])});
+    const double units = (std::sqrt(b) * (1 + 1e-12) + 4 * std::numeric_limits<double>::epsilon() * magnitude) * scale_;
+    if (!(units < double(kTop))) {
       box.lo = {0, 0, 0};
-      box.hi = {(1u << kMaxLevel) - 1, (1u << kMaxLevel) - 1, (1u << kMaxLevel) - 1};
+      box.hi = {kTop, kTop, kTop};
       return;
     }
-    const double r = std::sqrt(b) * (1 + 1e-12);
+    const std::uint32_t reach = static_cast<std::uint32_t>(units) + 3;
     for (int d = 0; d < 3; ++d) {
-      const double pad = r + 4 * std::numeric_limits<double>::epsilon() * std::abs(q.q[d]);
-      box.lo[d] = to_int(d, q.q[d] - pad);
-      box.hi[d] = to_int(d, q.q[d] + pad);
+      box.lo[d] = q.cell[d] > reach ? q.cell[d] - reach : 0;
+      box.hi[d] = std::min(q.cell[d] + reach, kTop);
     }
   }
 
@@ -269,8 +278,9 @@ class Octree {
   // (node[l] at level l), and the leaf below node[depth] holding that cell, or kNoLeaf when it is empty.
   struct OwnPath {
     std::array<std::uint32_t, kMaxLevel + 1> node;
-    int depth = -1;
+    int depth = -1;  ///< -1: no path yet
     std::uint32_t leaf = kNoLeaf;
+    std::array<std::uint32_t, 3> cell{};  ///< the integer coordinate it leads to
   };
 
   void knn_one(const Query& q, const OwnPath& own, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
@@ -297,12 +307,28 @@ class Octree {
     }
   }
 
-  // The own path of a query, by integer bits alone (Algorithm 1's "fast indexing").
-  OwnPath own_path(const Query& q) const {
-    OwnPath own;
-    if (n_ == 0 || root_is_leaf_) return own;
+  // Moves own, the path of the previous query (or none), to the path of q, by integer bits alone
+  // (Algorithm 1's "fast indexing"). The levels where both coordinates pick the same octants are kept
+  // and the descent resumes below them: queries in scan order mostly keep the whole path.
+  void follow_own_path(const Query& q, OwnPath& own) const {
+    if (n_ == 0 || root_is_leaf_) {
+      own = OwnPath{};
+      return;
+    }
+    int level = 0;
     std::uint32_t index = 0;
-    for (int level = 0; level < kMaxLevel; ++level) {
+    if (own.depth >= 0) {
+      std::uint32_t differ = 0;
+      for (int d = 0; d < 3; ++d) differ |= q.cell[d] ^ own.cell[d];
+      const int same_levels = differ == 0 ? kMaxLevel : kMaxLevel - (32 - __builtin_clz(differ));
+      own.cell = q.cell;
+      if (same_levels > own.depth) return;  // the same octants down to the last step
+      level = same_levels;
+      index = own.node[level];
+    }
+    own.cell = q.cell;
+    own.leaf = kNoLeaf;
+    for (; level < kMaxLevel; ++level) {
       const int shift = kMaxLevel - level - 1;
       const Node node = nodes_[index];
       const unsigned octant = ((q.cell[0] >> shift) & 1u) | (((q.cell[1] >> shift) & 1u) << 1) |
@@ -316,7 +342,6 @@ class Octree {
         break;
       }
     }
-    return own;
   }
 
   // Algorithm 1 after a look at the query's own leaf: that leaf usually brings the bound, and with it
