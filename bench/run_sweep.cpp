@@ -1,7 +1,7 @@
 // run_sweep: the experiment driver that reproduces the paper's sweeps (see bench/experiments/ and
 // results/README.md). Exit codes: 0 done, 2 bad input (nothing written), 1 other failure.
 #include "sweep/experiment.hpp"
-#include "sweep/machine.hpp"
+#include "machine.hpp"
 #include "sweep/progress.hpp"
 #include "sweep/results_file.hpp"
 #include "sweep/runner.hpp"
@@ -20,6 +20,8 @@
 namespace {
 
 using namespace nnb::sweep;
+using nnb::bench::read_build_info;
+using nnb::bench::read_machine_info;
 
 struct Flags {
   std::string experiment = "quick";

@@ -1,5 +1,6 @@
 #include "icp_experiment.hpp"
 #include "icp_record.hpp"
+#include "machine_json.hpp"
 
 #include <Eigen/LU>
 #include <nlohmann/json.hpp>
@@ -16,59 +17,13 @@ namespace {
 
 using nlohmann::ordered_json;
 
-std::string read_line(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  return line;
-}
-
-long parse_size(const std::string& text) {  // "32K", "8M"
-  if (text.empty()) return 0;
-  long value = std::atol(text.c_str());
-  if (text.back() == 'K') value *= 1024;
-  if (text.back() == 'M') value *= 1024 * 1024;
-  return value;
-}
-
-// Google Benchmark's context fields, read from the system.
+// Google Benchmark's context fields and the build's, as run_sweep writes them; nnb_build_type is the
+// build type as the programs report it (with "+sanitize" for sanitizer builds).
 ordered_json machine_context(const std::string& build_type) {
   ordered_json c;
-  const std::time_t now = std::time(nullptr);
-  char date[64];
-  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%S%z", std::localtime(&now));
-  c["date"] = date;
-  char host[256] = {};
-  gethostname(host, sizeof host - 1);
-  c["host_name"] = host;
   char exe[4096] = {};
-  if (readlink("/proc/self/exe", exe, sizeof exe - 1) > 0) c["executable"] = exe;
-  c["num_cpus"] = sysconf(_SC_NPROCESSORS_ONLN);
-  double mhz = 0.0;
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  for (std::string line; std::getline(cpuinfo, line);) {
-    if (line.rfind("cpu MHz", 0) == 0) {
-      mhz = std::atof(line.c_str() + line.find(':') + 1);
-      break;
-    }
-  }
-  c["mhz_per_cpu"] = static_cast<long>(std::lround(mhz));
-  const std::string governor = read_line("/sys/devices/system/cpu/cpu0/cpufreq/scaling_governor");
-  c["cpu_scaling_enabled"] = !governor.empty() && governor != "performance";
-  c["caches"] = ordered_json::array();
-  for (int i = 0;; ++i) {
-    const std::string dir = "/sys/devices/system/cpu/cpu0/cache/index" + std::to_string(i) + "/";
-    const std::string type = read_line(dir + "type");
-    if (type.empty()) break;
-    c["caches"].push_back({{"type", type},
-                           {"level", std::atoi(read_line(dir + "level").c_str())},
-                           {"size", parse_size(read_line(dir + "size"))},
-                           {"num_sharing", 0}});
-  }
-  double load[3] = {0, 0, 0};
-  if (getloadavg(load, 3) == 3) c["load_avg"] = {load[0], load[1], load[2]};
-  const bool release = build_type.rfind("Release", 0) == 0 && build_type.find('+') == std::string::npos;
-  c["library_build_type"] = release ? "release" : "debug";
+  const std::string executable = readlink("/proc/self/exe", exe, sizeof exe - 1) > 0 ? exe : "run_icp";
+  bench::put_machine_and_build(c, bench::read_machine_info(), bench::read_build_info(), executable);
   c["nnb_build_type"] = build_type;
   return c;
 }

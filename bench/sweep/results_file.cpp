@@ -1,6 +1,7 @@
 // Records to and from Google Benchmark-style JSON; the atomic writer. One of the two nlohmann TUs.
 #include "results_file.hpp"
 
+#include "machine_json.hpp"
 #include "nnb/cloud.hpp"
 
 #include <nlohmann/json.hpp>
@@ -68,28 +69,8 @@ ordered_json datasets_of(const LoadedData& data) {
 }
 
 ordered_json context_of(const RunDescription& run) {
-  const MachineInfo& m = run.machine;
-  const BuildInfo& b = run.build;
   ordered_json c;
-  c["date"] = m.date;
-  c["host_name"] = m.host_name;
-  c["executable"] = "run_sweep";
-  c["num_cpus"] = m.num_cpus;
-  c["mhz_per_cpu"] = static_cast<long>(m.mhz_per_cpu + 0.5);
-  c["cpu_scaling_enabled"] = m.cpu_scaling_enabled;
-  c["caches"] = ordered_json::array();
-  for (const auto& cache : m.caches) {
-    c["caches"].push_back({{"type", cache.type}, {"level", cache.level}, {"size", cache.size_bytes},
-                           {"num_sharing", cache.num_sharing}});
-  }
-  c["load_avg"] = m.load_avg;
-  c["library_build_type"] = b.ndebug ? "release" : "debug";
-  c["compiler"] = b.compiler;
-  c["flags"] = b.flags;
-  c["build_type"] = b.build_type;
-  c["ndebug"] = b.ndebug;
-  c["sanitizers"] = b.sanitizers;
-  c["git_commit"] = b.git_commit.empty() ? ordered_json(nullptr) : ordered_json(b.git_commit);
+  bench::put_machine_and_build(c, run.machine, run.build, "run_sweep");
   c["experiment"] = run.experiment->name;
   c["experiment_file"] = run.experiment->file;
   c["config"] = config_of(run);

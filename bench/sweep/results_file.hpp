@@ -14,6 +14,9 @@
 
 namespace nnb::sweep {
 
+using bench::BuildInfo;
+using bench::MachineInfo;
+
 struct RunDescription {
   const Experiment* experiment;
   const std::vector<PlannedAdapter>* adapters;

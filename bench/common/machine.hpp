@@ -3,7 +3,7 @@
 #include <string>
 #include <vector>
 
-namespace nnb::sweep {
+namespace nnb::bench {
 
 struct CacheInfo {
   std::string type;  ///< "Data", "Instruction" or "Unified"
@@ -39,4 +39,4 @@ MachineInfo read_machine_info();
 /// The facts baked into this binary at configure time, plus the git commit read at run time.
 BuildInfo read_build_info();
 
-}  // namespace nnb::sweep
+}  // namespace nnb::bench

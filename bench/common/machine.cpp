@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace nnb::sweep {
+namespace nnb::bench {
 namespace {
 
 std::string read_line(const std::string& path) {
@@ -87,14 +87,14 @@ MachineInfo read_machine_info() {
 
 BuildInfo read_build_info() {
   BuildInfo b;
-  b.compiler = NNB_SWEEP_COMPILER;
-  b.flags = NNB_SWEEP_FLAGS;
-  b.build_type = NNB_SWEEP_BUILD_TYPE;
-  b.source_dir = NNB_SWEEP_SOURCE_DIR;
+  b.compiler = NNB_MACHINE_COMPILER;
+  b.flags = NNB_MACHINE_FLAGS;
+  b.build_type = NNB_MACHINE_BUILD_TYPE;
+  b.source_dir = NNB_MACHINE_SOURCE_DIR;
 #ifdef NDEBUG
   b.ndebug = true;
 #endif
-#if defined(__SANITIZE_ADDRESS__) || defined(NNB_SWEEP_SANITIZE)
+#if defined(__SANITIZE_ADDRESS__) || defined(NNB_MACHINE_SANITIZE)
   b.sanitizers = true;
 #endif
   // Read at run time, not baked: a binary built before the last commit would report a stale one.
@@ -106,4 +106,4 @@ BuildInfo read_build_info() {
   return b;
 }
 
-}  // namespace nnb::sweep
+}  // namespace nnb::bench

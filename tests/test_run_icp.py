@@ -1,0 +1,65 @@
+#!/usr/bin/env python3
+"""run_icp end to end on a tiny synthetic pair: test_run_icp.py RUN_ICP WORKDIR.
+
+The results file has Google Benchmark's layout, the same machine and build context as run_sweep's (one writer
+for both), records with the fields plots/ reads; bad input exits 2 and writes nothing.
+"""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+RUN_ICP, WORK = sys.argv[1], Path(sys.argv[2])
+# run_sweep's machine and build fields (tests/test_run_sweep.py checks the same ones there).
+CONTEXT = ["date", "host_name", "executable", "num_cpus", "mhz_per_cpu", "cpu_scaling_enabled", "caches", "load_avg",
+           "library_build_type", "compiler", "flags", "build_type", "ndebug", "sanitizers", "git_commit",
+           "nnb_build_type"]
+RECORD = ["name", "pair", "adapter", "icp_seconds", "build_seconds", "nns_seconds", "estimate_seconds",
+          "iterations", "converged", "rms_m", "final_pose"]
+
+
+def fail(message):
+    print(f"FAIL: {message}")
+    sys.exit(1)
+
+
+def run(args):
+    return subprocess.run([RUN_ICP] + args, capture_output=True, text=True, timeout=300)
+
+
+WORK.mkdir(parents=True, exist_ok=True)
+out = WORK / "icp.json"
+out.unlink(missing_ok=True)
+tiny = ["--model", "hollow_sphere", "--query", "hollow_sphere", "--points", "500", "--iterations", "5"]
+proc = run(["--adapter", "ours_kdtree", "--out", str(out)] + tiny)
+if proc.returncode != 0:
+    fail(f"run_icp exited {proc.returncode}: {proc.stderr[-2000:]}")
+doc = json.loads(out.read_text())
+context = doc.get("context", {})
+for field in CONTEXT:
+    if field not in context:
+        fail(f"context field '{field}' missing")
+if not isinstance(context["caches"], list) or not context["caches"]:
+    fail("context.caches is empty")
+if not all({"type", "level", "size", "num_sharing"} <= set(c) for c in context["caches"]):
+    fail(f"a cache entry lacks a field: {context['caches']}")
+records = doc.get("benchmarks", [])
+if len(records) != 1:
+    fail(f"{len(records)} records, expected 1")
+for field in RECORD:
+    if field not in records[0]:
+        fail(f"record field '{field}' missing")
+if records[0]["adapter"] != "ours_kdtree" or len(records[0]["final_pose"]) != 4:
+    fail(f"record: {records[0]}")
+
+# Bad input: one clear line, exit 2, no file.
+for bad in (["--adapter", "no_such_adapter"], ["--adapter", "ours_kdtree", "--max-dist", "-1"],
+            ["--adapter", "ours_kdtree", "--param", "bucket_size=0"]):
+    bad_out = WORK / "bad.json"
+    bad_out.unlink(missing_ok=True)
+    proc = run(bad + ["--out", str(bad_out)] + tiny)
+    if proc.returncode != 2:
+        fail(f"{bad}: exited {proc.returncode}, expected 2")
+    if "error" not in proc.stderr or bad_out.exists():
+        fail(f"{bad}: no error line, or a file was written: {proc.stderr!r}")
+print("run_icp: ok")
