@@ -123,7 +123,7 @@ class KdTree {
   /// Returns how many queries took the second way.
   template <class Emit>
   std::size_t knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
-                 Emit&& emit) const {
+                        Emit&& emit) const {
     if (n_ == 0 || k < 1) {
       buffers.best.clear();
       for (std::size_t i = 0; i < n; ++i) emit(i, buffers.best);
