@@ -7,8 +7,6 @@
 #include <unistd.h>
 
 #include <cmath>
-#include <cstdlib>
-#include <ctime>
 #include <fstream>
 #include <sstream>
 

@@ -332,4 +332,32 @@ inline T search_limit(double limit_sq_m2, const ErrorModel<T>& error) {
   }
 }
 
+/// Runs search(collect) for the k nearest within limit_sq_m2 (m^2) with the collector that fits k (the
+/// paper's choice: a plain minimum for 1-NN in double, a linear heap up to kLinearHeapMaxK, a binary heap
+/// above), then finishes it into buffers.best.
+template <typename T, class Search>
+inline void collect_knn(int k, double limit_sq_m2, const ErrorModel<T>& error, SearchBuffers<T>& buffers,
+                        Search&& search) {
+  buffers.best.clear();
+  buffers.extras.clear();
+  const T limit = search_limit(limit_sq_m2, error);
+  if constexpr (!ErrorModel<T>::kConservative) {
+    if (k == 1) {
+      NearestCollector<T> nearest(buffers, limit);
+      search(nearest);
+      nearest.finish();
+      return;
+    }
+  }
+  if (k <= kLinearHeapMaxK) {
+    Collector<T, true> heap(buffers, k, limit, error);
+    search(heap);
+    heap.finish();
+  } else {
+    Collector<T, false> heap(buffers, k, limit, error);
+    search(heap);
+    heap.finish();
+  }
+}
+
 }  // namespace ours

@@ -142,7 +142,7 @@ class KdTree {
         reused += m;
         for (std::size_t j = 0; j < m; ++j) {
           const Query q = make_query(xyz + 3 * (first + j));
-          with_collector(q, k, limit_sq_m2, buffers, [&](auto& collect) {
+          collect_knn(k, limit_sq_m2, q.error, buffers, [&](auto& collect) {
             same_leaf += search_after_last(q, collect, buffers, last) ? 1 : 0;
           });
           emit(first + j, buffers.best);
@@ -158,7 +158,7 @@ class KdTree {
         for (std::size_t j = 0; j < m; ++j) {
           same_leaf += batch.leaf[j] == (j > 0 ? batch.leaf[j - 1] : last.leaf) ? 1 : 0;
           PendingCell<T>* const bottom = buffers.pending.data() + j * stride;
-          with_collector(batch.q[j], k, limit_sq_m2, buffers, [&](auto& collect) {
+          collect_knn(k, limit_sq_m2, batch.q[j].error, buffers, [&](auto& collect) {
             search_from(batch.q[j], collect, batch.leaf[j], bottom, batch.top[j]);
           });
           emit(first + j, buffers.best);
@@ -347,32 +347,6 @@ class KdTree {
     std::uint32_t leaf = std::numeric_limits<std::uint32_t>::max();
     std::array<T, 3> lo, hi;
   };
-
-  // Runs search(collect) with the collector for k (as Algorithm 3's heaps) and finishes it into
-  // buffers.best.
-  template <class Search>
-  static void with_collector(const Query& q, int k, double limit_sq_m2, SearchBuffers<T>& buffers, Search&& search) {
-    buffers.best.clear();
-    buffers.extras.clear();
-    const T limit = search_limit(limit_sq_m2, q.error);
-    if constexpr (!ErrorModel<T>::kConservative) {
-      if (k == 1) {
-        NearestCollector<T> nearest(buffers, limit);
-        search(nearest);
-        nearest.finish();
-        return;
-      }
-    }
-    if (k <= kLinearHeapMaxK) {
-      Collector<T, true> heap(buffers, k, limit, q.error);
-      search(heap);
-      heap.finish();
-    } else {
-      Collector<T, false> heap(buffers, k, limit, q.error);
-      search(heap);
-      heap.finish();
-    }
-  }
 
   // Pushes the far child of a first-descent step when it lies within the bound (offsets: that one axis).
   void push_far(const DescentStep<T>& step, T offset, T bound, PendingCell<T>*& top) const {

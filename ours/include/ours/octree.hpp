@@ -284,27 +284,12 @@ class Octree {
   };
 
   void knn_one(const Query& q, const OwnPath& own, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
-    buffers.best.clear();
-    buffers.extras.clear();
-    if (n_ == 0 || k < 1) return;
-    const T limit = search_limit(limit_sq_m2, q.error);
-    if constexpr (!ErrorModel<T>::kConservative) {
-      if (k == 1) {
-        NearestCollector<T> nearest(buffers, limit);
-        search(q, own, nearest);
-        nearest.finish();
-        return;
-      }
+    if (n_ == 0 || k < 1) {
+      buffers.best.clear();
+      buffers.extras.clear();
+      return;
     }
-    if (k <= kLinearHeapMaxK) {
-      Collector<T, true> heap(buffers, k, limit, q.error);
-      search(q, own, heap);
-      heap.finish();
-    } else {
-      Collector<T, false> heap(buffers, k, limit, q.error);
-      search(q, own, heap);
-      heap.finish();
-    }
+    collect_knn(k, limit_sq_m2, q.error, buffers, [&](auto& collect) { search(q, own, collect); });
   }
 
   // Moves own, the path of the previous query (or none), to the path of q, by integer bits alone
