@@ -166,6 +166,7 @@ NamedCloud resolve_cloud(const std::string& spec, Role role, const DataOptions& 
       const Eigen::Vector3d translation = cloud.pose.topRightCorner<3, 1>();
       cloud.points = (rotation * cloud.points).colwise() + translation;
     }
+    check_coordinate_range(cloud.points, cloud.source);
     return cloud;
   }
 
@@ -180,6 +181,7 @@ NamedCloud resolve_cloud(const std::string& spec, Role role, const DataOptions& 
   cloud.kind = "file";
   cloud.source = spec;
   cloud.sha256 = sha256_file(spec);
+  check_coordinate_range(cloud.points, spec);
   return cloud;
 }
 

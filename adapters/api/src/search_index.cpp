@@ -68,6 +68,7 @@ void SearchIndex::build(const Cloud& model) {
   if (const auto bad = first_non_finite(model); bad >= 0) {
     throw InputError(info_.name + ": model point " + std::to_string(bad) + " has a non-finite coordinate");
   }
+  check_coordinate_range(model, info_.name + ": model cloud");
   model_size_ = 0;
   do_build(model);
   model_size_ = static_cast<std::size_t>(model.cols());
@@ -78,6 +79,7 @@ void SearchIndex::check_queries(const Cloud& queries) const {
   if (const auto bad = first_non_finite(queries); bad >= 0) {
     throw InputError(info_.name + ": query point " + std::to_string(bad) + " has a non-finite coordinate");
   }
+  check_coordinate_range(queries, info_.name + ": query cloud");
 }
 
 void SearchIndex::check_supported(SearchKind kind) const {

@@ -2,7 +2,9 @@
 // Point clouds as the whole project sees them: 3 x N, double precision, metres.
 #include <Eigen/Core>
 
+#include <cmath>
 #include <cstddef>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -26,6 +28,37 @@ inline Eigen::Index first_non_finite(const Cloud& cloud) {
     if (!cloud.col(i).allFinite()) return i;
   }
   return -1;
+}
+
+/// The coordinate contract: every coordinate of a model or query point satisfies |c| <= this (metres).
+/// Why 1e15: the float adapters (adapters/float_libs/float_frame.hpp) hand libraries coordinates relative
+/// to the model's centre, so a coordinate is at most 2e15 there and a squared distance at most
+/// 3 * (4e15)^2 ~ 5e31, far below float's 3.4e38; their search margins are relative (1e-5 of the radius,
+/// 1e-6 of the magnitude), so rounding stays covered at any magnitude that does not overflow. In double,
+/// volumes and squared distances (R-tree areas, (2e15)^3 ~ 1e46) stay finite. Beyond ~5e18 float squared
+/// distances overflow (PCL answered wrongly at 1e20), and at 1e200 double squares overflow too.
+inline constexpr double kMaxAbsCoordinate_m = 1e15;
+
+/// Returns the index of the first point with a coordinate beyond kMaxAbsCoordinate_m, or -1.
+inline Eigen::Index first_out_of_range(const Cloud& cloud) {
+  for (Eigen::Index i = 0; i < cloud.cols(); ++i) {
+    for (int d = 0; d < 3; ++d) {
+      if (!(std::abs(cloud(d, i)) <= kMaxAbsCoordinate_m)) return i;  // NaN fails too
+    }
+  }
+  return -1;
+}
+
+/// Throws InputError naming what (a file, "query cloud"...) and the first point whose coordinates are
+/// non-finite or beyond kMaxAbsCoordinate_m, so that no library ever sees them.
+inline void check_coordinate_range(const Cloud& cloud, const std::string& what) {
+  const Eigen::Index bad = first_out_of_range(cloud);
+  if (bad < 0) return;
+  std::ostringstream msg;
+  msg.precision(17);
+  msg << what << ": point " << bad << " (" << cloud(0, bad) << ", " << cloud(1, bad) << ", " << cloud(2, bad)
+      << ") has a coordinate beyond the supported range |c| <= " << kMaxAbsCoordinate_m << " m";
+  throw InputError(msg.str());
 }
 
 /// Squared distance between two points in square metres, summed in a fixed order so that every
