@@ -10,8 +10,8 @@
 #include <cstdlib>
 #include <filesystem>
 
-#ifndef NNB_DEFAULT_DATA_DIR
-#error "NNB_DEFAULT_DATA_DIR must be defined by the build"
+#ifndef NNB_SOURCE_DIR
+#error "NNB_SOURCE_DIR must be defined by the build"
 #endif
 
 namespace nnb::datasets {
@@ -27,6 +27,12 @@ std::string joined_names() {
 
 std::string data_dir_of(const DataOptions& options) {
   return options.data_dir.empty() ? default_data_dir() : options.data_dir;
+}
+
+// A pair's file is missing: most often the scans were never fetched, so say how to get them.
+InputError missing_pair_file(const std::string& path) {
+  return InputError("missing file: " + path +
+                    " (get the real scans with scripts/fetch_data.sh, or point --data-dir or NNB_DATA_DIR at them)");
 }
 
 // A simulated pair (city_scan.hpp) looks like a manifest pair without files, so every caller of
@@ -68,8 +74,16 @@ NamedCloud from_loaded(LoadedPoints loaded) {
 }  // namespace
 
 std::string default_data_dir() {
+  // An explicit setting wins even if missing: its files are then reported missing, not silently replaced.
   const char* env = std::getenv("NNB_DATA_DIR");
-  return env != nullptr && *env != '\0' ? std::string(env) : std::string(NNB_DEFAULT_DATA_DIR);
+  if (env != nullptr && *env != '\0') return env;
+  const fs::path source(NNB_SOURCE_DIR);
+  const fs::path fetched = source / "data" / "real";  // where scripts/fetch_data.sh puts them
+  for (const fs::path& dir : {fetched, source.parent_path() / "shared" / "datasets" / "real"}) {
+    std::error_code error;
+    if (fs::is_directory(dir, error)) return dir.lexically_normal().string();
+  }
+  return fetched.string();
 }
 
 std::vector<std::string> dataset_names() {
@@ -117,6 +131,7 @@ std::optional<Eigen::Matrix4d> load_pair_pose(const RealPair& pair, PoseKind kin
     return std::nullopt;
   }
   const std::string path = pair_file_path(pair, entry->file, options);
+  if (!fs::exists(path)) throw missing_pair_file(path);
   if (options.verify_checksums) verify_sha256(path, entry->sha256);
   return load_pose(path, parse_pose_format(entry->format), pair.scale_to_m);
 }
@@ -125,7 +140,7 @@ NamedCloud load_pair_scan(const RealPair& pair, Role role, const DataOptions& op
   if (pair.kind == "simulated") return simulated_scan(pair, role, options);
   const ManifestScan& scan = role == Role::model ? pair.model : pair.query;
   const std::string path = pair_file_path(pair, scan.file, options);
-  if (!fs::exists(path)) throw InputError("missing file: " + path);
+  if (!fs::exists(path)) throw missing_pair_file(path);
   const std::string sha = sha256_file(path);
   if (options.verify_checksums && sha != scan.sha256) {
     throw InputError("checksum mismatch for " + path + ": expected sha256 " + scan.sha256 + ", got " + sha);

@@ -36,7 +36,9 @@ struct NamedCloud {
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  ///< applied to the points (query of a real pair)
 };
 
-/// The data directory: NNB_DATA_DIR if set, else the build's default (../shared/datasets/real).
+/// The real scans' directory when DataOptions.data_dir is empty: NNB_DATA_DIR if set; else the first that
+/// exists of data/real in the source tree (where scripts/fetch_data.sh puts them) and ../shared/datasets/real
+/// beside it; else data/real, whose missing files then name scripts/fetch_data.sh.
 std::string default_data_dir();
 /// Names of the synthetic shapes, real pairs and simulated pairs, for help texts and errors.
 std::vector<std::string> dataset_names();
