@@ -34,6 +34,14 @@ std::string read_file_bytes(const std::string& path) {
   return bytes;
 }
 
+void require_room(const std::string& path, const char* what, unsigned long long n_items, unsigned long long min_bytes,
+                  unsigned long long available) {
+  if (min_bytes == 0 || n_items <= available / min_bytes) return;
+  throw InputError("truncated file " + path + ": " + std::to_string(n_items) + " " + what + " claimed, but " +
+                   std::to_string(available) + " bytes cannot hold them (at least " + std::to_string(min_bytes) +
+                   " bytes each)");
+}
+
 }  // namespace detail
 
 PointFormat parse_point_format(const std::string& name) {
@@ -107,7 +115,10 @@ LoadedPoints load_points(const std::string& path, PointFormat format, double sca
   if (kept == 0) {
     throw InputError("no valid point in " + path + " (" + std::to_string(out.n_read) + " read, " +
                      std::to_string(out.n_non_finite) + " non-finite, " + std::to_string(out.n_zero) +
-                     " at (0,0,0))");
+                     " at (0,0,0)" + (raw.first_bad_line.empty() ? "" : "; malformed " + raw.first_bad_line) + ")");
+  }
+  if (!raw.first_bad_line.empty()) {
+    throw InputError("malformed line in " + path + " " + raw.first_bad_line + " (expected x y z)");
   }
   return out;
 }

@@ -14,7 +14,13 @@ namespace nnb::datasets::detail {
 struct RawPoints {
   std::vector<double> xyz;
   std::size_t n_skipped_lines = 0;
+  std::string first_bad_line;  ///< "line N: 'text'" of the first damaged line, refused by load_points
 };
+
+/// Throws the truncation InputError when n_items items of at least min_bytes each cannot fit in
+/// available bytes: every count a header claims is checked before anything is allocated for it.
+void require_room(const std::string& path, const char* what, unsigned long long n_items, unsigned long long min_bytes,
+                  unsigned long long available);
 
 /// The file's bytes; InputError for a missing, unreadable or empty file.
 std::string read_file_bytes(const std::string& path);

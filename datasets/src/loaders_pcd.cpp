@@ -1,4 +1,5 @@
-// PCD through PCL (ascii, binary, binary_compressed). The only translation unit that includes PCL.
+// PCD: ascii parsed here (strictly), binary and binary_compressed through PCL once the header's sizes are
+// checked against the file. The only translation unit that includes PCL.
 // PCL's own error prints are silenced for the call: the InputError thrown here is the one line.
 #include "loaders_detail.hpp"
 
@@ -7,6 +8,7 @@
 #include <pcl/io/pcd_io.h>
 
 #include <algorithm>
+#include <climits>
 #include <cstring>
 #include <sstream>
 #include <vector>
@@ -50,19 +52,39 @@ int field_bytes(std::uint8_t datatype) {
   }
 }
 
-/// Validates the header and the payload size before PCL sees the file: PCL 1.13 crashes on some
-/// malformed headers (for example one without FIELDS) instead of returning an error.
-void check_pcd_layout(const std::string& path, const std::string& bytes) {
+/// What the header says, checked for consistency: field i has sizes[i] bytes, types[i] and counts[i].
+struct PcdLayout {
+  std::vector<std::string> fields, sizes, types;
+  std::vector<unsigned long long> counts;
+  unsigned long long n = 0;            ///< WIDTH x HEIGHT
+  unsigned long long point_bytes = 0;  ///< sum of SIZE x COUNT
+  std::string data;                    ///< ascii, binary or binary_compressed
+  std::size_t payload_at = 0;          ///< first byte after the DATA line
+  std::size_t payload_line = 0;        ///< line number of the first data line
+};
+
+/// LZF's densest code turns 3 bytes into 264: no honest compressed block expands more than that.
+constexpr unsigned long long kLzfMaxExpansion = 88;
+/// A point record larger than this is no point cloud; it also keeps every size product in 64 bits.
+constexpr unsigned long long kMaxPointBytes = 1ull << 24;
+
+PcdLayout parse_pcd_header(const std::string& path, const std::string& bytes) {
   auto wrong = [&](const std::string& why) { return InputError("wrong PCD header in " + path + ": " + why); };
-  std::vector<std::string> fields, sizes, types, counts;
+  PcdLayout layout;
+  std::vector<std::string> counts;
   unsigned long long width = 0, height = 0, points = 0;
   bool have_width = false, have_height = false, have_points = false;
-  std::string data;
   std::size_t pos = 0;
+  std::size_t line_no = 0;
   const char* begin = nullptr;
   const char* end = nullptr;
-  while (data.empty()) {
+  auto parse_count = [&](const std::string& text, unsigned long long& out) {
+    const auto r = std::from_chars(text.data(), text.data() + text.size(), out);
+    return r.ec == std::errc() && r.ptr == text.data() + text.size();
+  };
+  while (layout.data.empty()) {
     if (!next_line(bytes, pos, begin, end)) throw InputError("truncated PCD header in " + path + ": no DATA line");
+    ++line_no;
     std::istringstream words(std::string(begin, end));
     std::string key;
     if (!(words >> key) || key[0] == '#') continue;
@@ -70,70 +92,174 @@ void check_pcd_layout(const std::string& path, const std::string& bytes) {
     for (std::string v; words >> v;) values.push_back(v);
     auto number = [&](unsigned long long& out) {
       if (values.size() != 1) throw wrong("bad " + key + " line");
-      const auto r = std::from_chars(values[0].data(), values[0].data() + values[0].size(), out);
-      if (r.ec != std::errc() || r.ptr != values[0].data() + values[0].size()) throw wrong("bad " + key + " value");
+      if (!parse_count(values[0], out)) throw wrong("bad " + key + " value");
     };
     if (key == "VERSION" || key == "VIEWPOINT") continue;
-    if (key == "FIELDS" || key == "COLUMNS") fields = values;
-    else if (key == "SIZE") sizes = values;
-    else if (key == "TYPE") types = values;
+    if (key == "FIELDS" || key == "COLUMNS") layout.fields = values;
+    else if (key == "SIZE") layout.sizes = values;
+    else if (key == "TYPE") layout.types = values;
     else if (key == "COUNT") counts = values;
     else if (key == "WIDTH") { number(width); have_width = true; }
     else if (key == "HEIGHT") { number(height); have_height = true; }
     else if (key == "POINTS") { number(points); have_points = true; }
-    else if (key == "DATA") data = values.empty() ? "?" : values[0];
+    else if (key == "DATA") layout.data = values.empty() ? "?" : values[0];
     else throw wrong("unknown line '" + key + "'");
   }
-  if (fields.empty() || sizes.size() != fields.size() || types.size() != fields.size() ||
+  layout.payload_at = pos;
+  layout.payload_line = line_no + 1;
+  const auto& fields = layout.fields;
+  if (fields.empty() || layout.sizes.size() != fields.size() || layout.types.size() != fields.size() ||
       (!counts.empty() && counts.size() != fields.size())) {
     throw wrong("FIELDS, SIZE, TYPE and COUNT must list the same number of entries");
   }
   if (!have_width || !have_height) throw wrong("no WIDTH or HEIGHT");
-  if (width > (1ull << 32) || height > (1ull << 32) || width * height > (1ull << 32)) throw wrong("absurd WIDTH x HEIGHT");
-  if (have_points && points != width * height) throw wrong("POINTS is not WIDTH x HEIGHT");
-  unsigned long long point_bytes = 0;
+  const unsigned long long max_points = 1ull << 32;
+  if (width > max_points || height > max_points || (height != 0 && width > max_points / height)) {
+    throw wrong("absurd WIDTH x HEIGHT");
+  }
+  layout.n = width * height;
+  if (have_points && points != layout.n) throw wrong("POINTS is not WIDTH x HEIGHT");
   for (std::size_t i = 0; i < fields.size(); ++i) {
-    const std::string& size = sizes[i];
-    const std::string& type = types[i];
+    const std::string& size = layout.sizes[i];
+    const std::string& type = layout.types[i];
     if (!(size == "1" || size == "2" || size == "4" || size == "8") || !(type == "F" || type == "U" || type == "I") ||
         (type == "F" && !(size == "4" || size == "8"))) {
       throw wrong("bad SIZE/TYPE '" + size + " " + type + "' of field " + fields[i]);
     }
     unsigned long long count = 1;
-    if (!counts.empty()) {
-      const auto r = std::from_chars(counts[i].data(), counts[i].data() + counts[i].size(), count);
-      if (r.ec != std::errc() || count == 0 || count > 1000000) throw wrong("bad COUNT of field " + fields[i]);
+    if (!counts.empty() && (!parse_count(counts[i], count) || count == 0 || count > 1000000)) {
+      throw wrong("bad COUNT of field " + fields[i]);
     }
-    point_bytes += count * (size[0] - '0');
+    layout.counts.push_back(count);
+    layout.point_bytes += count * static_cast<unsigned long long>(size[0] - '0');
+    if (layout.point_bytes > kMaxPointBytes) throw wrong("absurd point size");
   }
   for (const char* axis : {"x", "y", "z"}) {
     if (std::find(fields.begin(), fields.end(), axis) == fields.end()) throw wrong("no x, y and z fields");
   }
-  const unsigned long long n = width * height;
-  const unsigned long long payload = bytes.size() - pos;
-  if (data == "binary") {
-    if (payload < n * point_bytes) {
-      throw InputError("truncated PCD file " + path + ": " + std::to_string(payload) + " data bytes for " +
-                       std::to_string(n) + " points of " + std::to_string(point_bytes) + " bytes");
-    }
-  } else if (data == "binary_compressed") {
+  return layout;
+}
+
+/// Checks every size the header claims against the file before anything is allocated: PCL allocates
+/// what the header says (and crashes on some malformed headers instead of returning an error).
+void check_pcd_payload(const std::string& path, const std::string& bytes, const PcdLayout& layout) {
+  const unsigned long long payload = bytes.size() - layout.payload_at;
+  const std::string file_size = " (file of " + std::to_string(bytes.size()) + " bytes)";
+  if (layout.data == "binary") {
+    require_room(path, "PCD points", layout.n, layout.point_bytes, payload);
+  } else if (layout.data == "binary_compressed") {
     std::uint32_t sizes_le[2] = {0, 0};
     if (payload < 8) throw InputError("truncated PCD file " + path + ": no compressed block");
-    std::memcpy(sizes_le, bytes.data() + pos, 8);
+    std::memcpy(sizes_le, bytes.data() + layout.payload_at, 8);
     if (sizes_le[0] > payload - 8) {
       throw InputError("truncated PCD file " + path + ": compressed block of " + std::to_string(sizes_le[0]) +
                        " bytes, " + std::to_string(payload - 8) + " present");
     }
-    if (sizes_le[1] != n * point_bytes) throw wrong("uncompressed size does not match the points");
-  } else if (data != "ascii") {
-    throw wrong("unknown DATA '" + data + "'");
+    if (sizes_le[1] != layout.n * layout.point_bytes) {
+      throw InputError("wrong PCD header in " + path + ": uncompressed size " + std::to_string(sizes_le[1]) +
+                       " does not match the " + std::to_string(layout.n) + " points claimed");
+    }
+    if (sizes_le[1] > kLzfMaxExpansion * sizes_le[0]) {
+      throw InputError("truncated PCD file " + path + ": " + std::to_string(layout.n) + " points claimed (" +
+                       std::to_string(sizes_le[1]) + " bytes) cannot come from a compressed block of " +
+                       std::to_string(sizes_le[0]) + " bytes" + file_size);
+    }
+  } else if (layout.data == "ascii") {
+    unsigned long long values = 0;
+    for (const auto c : layout.counts) values += c;
+    // A value takes a character and a separator; the last line may lack its '\n'.
+    require_room(path, "PCD points", layout.n, 2 * values, payload + 1);
+  } else {
+    throw InputError("wrong PCD header in " + path + ": unknown DATA '" + layout.data + "'");
   }
+}
+
+/// Parses one ascii value of a field's type at p (after blanks), as PCL would store it; false if the
+/// token is not such a number or is not followed by a blank or the line's end.
+bool parse_pcd_value(const char*& p, const char* end, char type, char size, double& out) {
+  const char* q = p;
+  while (q < end && (*q == ' ' || *q == '\t' || *q == '\r')) ++q;
+  if (q < end && *q == '+') ++q;
+  std::from_chars_result r{q, std::errc::invalid_argument};
+  if (type == 'F' && size == '4') {
+    float v = 0;
+    r = std::from_chars(q, end, v);
+    out = v;
+  } else if (type == 'F') {
+    r = std::from_chars(q, end, out);
+  } else {
+    long long v = 0;
+    r = std::from_chars(q, end, v);
+    const int bits = 8 * (size - '0');
+    const long long lo = type == 'U' ? 0 : -(1ll << (bits - 1));
+    const long long hi = type == 'U' ? (bits == 64 ? LLONG_MAX : (1ll << bits) - 1) : (bits == 64 ? LLONG_MAX : (1ll << (bits - 1)) - 1);
+    if (r.ec == std::errc() && (v < lo || v > hi)) r.ec = std::errc::result_out_of_range;
+    out = static_cast<double>(v);
+  }
+  if (r.ec != std::errc() || r.ptr == q) return false;
+  if (r.ptr < end && !(*r.ptr == ' ' || *r.ptr == '\t' || *r.ptr == '\r')) return false;
+  p = r.ptr;
+  return true;
+}
+
+/// Strict ascii PCD: one line per point with every value of every field, blank lines skipped; anything
+/// that is not a number of its field's type is refused with its line.
+RawPoints read_ascii_pcd(const std::string& path, const std::string& bytes, const PcdLayout& layout) {
+  int axis_field[3] = {-1, -1, -1};
+  for (std::size_t f = 0; f < layout.fields.size(); ++f) {
+    for (int a = 0; a < 3; ++a) {
+      if (layout.fields[f] == std::string(1, static_cast<char>('x' + a))) axis_field[a] = static_cast<int>(f);
+    }
+  }
+  RawPoints raw;
+  raw.xyz.resize(3 * layout.n);
+  std::size_t pos = layout.payload_at;
+  std::size_t line_no = layout.payload_line - 1;
+  const char* line = nullptr;
+  const char* end = nullptr;
+  auto malformed = [&](const std::string& why) {
+    return InputError("malformed number in " + path + " line " + std::to_string(line_no) + " (" + why + "): '" +
+                      std::string(line, std::min<std::size_t>(end - line, 60)) + "'");
+  };
+  unsigned long long i = 0;
+  while (next_line(bytes, pos, line, end)) {
+    ++line_no;
+    const char* p = line;
+    while (p < end && (*p == ' ' || *p == '\t' || *p == '\r')) ++p;
+    if (p == end) continue;
+    if (i == layout.n) throw malformed("more lines than the " + std::to_string(layout.n) + " points claimed");
+    p = line;
+    for (std::size_t f = 0; f < layout.fields.size(); ++f) {
+      for (unsigned long long c = 0; c < layout.counts[f]; ++c) {
+        double value = 0;
+        if (!parse_pcd_value(p, end, layout.types[f][0], layout.sizes[f][0], value)) {
+          throw malformed("field " + layout.fields[f] + " of point " + std::to_string(i));
+        }
+        for (int a = 0; a < 3; ++a) {
+          if (axis_field[a] == static_cast<int>(f) && c == 0) raw.xyz[3 * i + a] = value;
+        }
+      }
+    }
+    while (p < end && (*p == ' ' || *p == '\t' || *p == '\r')) ++p;
+    if (p != end) throw malformed("more values than the header's fields");
+    ++i;
+  }
+  if (i != layout.n) {
+    throw InputError("truncated PCD file " + path + ": " + std::to_string(i) + " of " + std::to_string(layout.n) +
+                     " points present");
+  }
+  return raw;
 }
 
 }  // namespace
 
 RawPoints read_pcd(const std::string& path) {
-  check_pcd_layout(path, read_file_bytes(path));
+  {
+    const std::string bytes = read_file_bytes(path);
+    const PcdLayout layout = parse_pcd_header(path, bytes);
+    check_pcd_payload(path, bytes, layout);
+    if (layout.data == "ascii") return read_ascii_pcd(path, bytes, layout);
+  }
   pcl::PCLPointCloud2 cloud;
   {
     const QuietPcl quiet;

@@ -66,6 +66,16 @@ double decode(const unsigned char* p, int size, char kind, bool swap) {
   }
 }
 
+/// The fewest bytes one item of the element can take: its scalars' sizes and its lists' count sizes in
+/// binary; in ascii a character and a separator per value (a list has at least its count).
+unsigned long long min_item_bytes(const Element& element, Encoding encoding) {
+  unsigned long long bytes = 0;
+  for (const Property& p : element.properties) {
+    bytes += encoding == Encoding::ascii ? 2 : (p.is_list ? p.count_size : p.size);
+  }
+  return encoding == Encoding::ascii ? std::max<unsigned long long>(bytes, 1) : bytes;
+}
+
 }  // namespace
 
 RawPoints read_ply(const std::string& path, const std::string& bytes) {
@@ -98,10 +108,12 @@ RawPoints read_ply(const std::string& path, const std::string& bytes) {
       have_format = true;
     } else if (key == "element") {
       Element e;
-      long long count = -1;
+      std::string count, rest;
       words >> e.name >> count;
-      if (!words || count < 0) throw wrong("bad line '" + text + "'");
-      e.count = static_cast<std::size_t>(count);
+      const auto r = std::from_chars(count.data(), count.data() + count.size(), e.count);
+      if (!words || r.ec != std::errc() || r.ptr != count.data() + count.size() || (words >> rest)) {
+        throw wrong("bad line '" + text + "'");
+      }
       elements.push_back(e);
     } else if (key == "property") {
       if (elements.empty()) throw wrong("property before any element");
@@ -143,10 +155,14 @@ RawPoints read_ply(const std::string& path, const std::string& bytes) {
   }
   if (axis_of[0] < 0 || axis_of[1] < 0 || axis_of[2] < 0) throw wrong("vertex has no x, y and z properties");
 
-  RawPoints raw;
-  if (vertex.count > bytes.size()) {  // every vertex takes at least one byte: a lying count is truncation
-    throw InputError("truncated PLY file " + path + ": " + std::to_string(vertex.count) + " vertices declared");
+  // Every count is checked against the bytes after the header before anything is allocated for it.
+  for (std::size_t e = 0; e <= vertex_element; ++e) {
+    const std::string what = "PLY " + elements[e].name + " items";
+    const std::size_t slack = encoding == Encoding::ascii ? 1 : 0;  // the last line may lack its '\n'
+    require_room(path, what.c_str(), elements[e].count, min_item_bytes(elements[e], encoding),
+                 bytes.size() - pos + slack);
   }
+  RawPoints raw;
   raw.xyz.resize(3 * vertex.count);
 
   if (encoding == Encoding::ascii) {
@@ -160,7 +176,8 @@ RawPoints read_ply(const std::string& path, const std::string& bytes) {
         }
         if (!is_vertex) continue;
         const char* p = line;
-        for (std::size_t k = 0; k < vertex.properties.size(); ++k) {
+        std::size_t k = 0;
+        for (; k < vertex.properties.size(); ++k) {
           const Property& prop = vertex.properties[k];
           double value = 0;
           std::size_t n_values = 1;
@@ -177,6 +194,11 @@ RawPoints read_ply(const std::string& path, const std::string& bytes) {
           for (int a = 0; a < 3; ++a) {
             if (axis_of[a] == static_cast<int>(k)) raw.xyz[3 * i + a] = value;
           }
+        }
+        while (p < end && (*p == ' ' || *p == '\t' || *p == '\r')) ++p;
+        if (p != end) {
+          throw InputError("malformed number in " + path + " at vertex " + std::to_string(i) + ": more values than " +
+                           "the header's properties ('" + std::string(line, std::min<std::size_t>(end - line, 60)) + "')");
         }
       }
     }
@@ -195,6 +217,7 @@ RawPoints read_ply(const std::string& path, const std::string& bytes) {
   for (std::size_t e = 0; e <= vertex_element; ++e) {
     const Element& el = elements[e];
     const bool is_vertex = e == vertex_element;
+    if (el.properties.empty()) continue;  // no bytes to read, whatever the count
     for (std::size_t i = 0; i < el.count; ++i) {
       for (std::size_t k = 0; k < el.properties.size(); ++k) {
         const Property& prop = el.properties[k];

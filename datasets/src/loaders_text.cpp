@@ -15,24 +15,47 @@ bool only_blanks(const char* p, const char* end) {
   }
   return true;
 }
+
+/// The old SICK header "W x H" (two positive integers around an 'x').
+bool is_resolution_header(const char* p, const char* end) {
+  auto integer = [&](const char*& q) {
+    while (q < end && (*q == ' ' || *q == '\t' || *q == '\r')) ++q;
+    unsigned long value = 0;
+    const auto r = std::from_chars(q, end, value);
+    if (r.ec != std::errc() || r.ptr == q) return false;
+    q = r.ptr;
+    return true;
+  };
+  if (!integer(p)) return false;
+  while (p < end && (*p == ' ' || *p == '\t')) ++p;
+  if (p == end || *p != 'x') return false;
+  ++p;
+  return integer(p) && only_blanks(p, end);
+}
 }  // namespace
 
 RawPoints read_3dtk(const std::string& /*path*/, const std::string& text) {
-  // Lines that are not 3 numbers are skipped: the 2009 copies start with a "360 x 225" header.
-  // Further columns (reflectance in 3DTK's uosr format) are ignored.
+  // The 2009 copies start with a "360 x 225" header, skipped and counted; any other line that is not
+  // 3 numbers is damage, reported by load_points with its line number. Further columns (reflectance in
+  // 3DTK's uosr format) are ignored.
   RawPoints raw;
   raw.xyz.reserve(text.size() / 8);
   std::size_t pos = 0;
+  std::size_t line_no = 0;
   const char* line = nullptr;
   const char* end = nullptr;
   while (next_line(text, pos, line, end)) {
+    ++line_no;
     if (only_blanks(line, end)) continue;
     double v[3];
     const char* p = line;
     if (parse_number(p, end, v[0]) && parse_number(p, end, v[1]) && parse_number(p, end, v[2])) {
       raw.xyz.insert(raw.xyz.end(), v, v + 3);
-    } else {
+    } else if (raw.xyz.empty() && raw.n_skipped_lines == 0 && is_resolution_header(line, end)) {
       ++raw.n_skipped_lines;
+    } else if (raw.first_bad_line.empty()) {
+      raw.first_bad_line = "line " + std::to_string(line_no) + ": '" +
+                           std::string(line, std::min<std::size_t>(end - line, 60)) + "'";
     }
   }
   return raw;
