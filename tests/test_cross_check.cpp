@@ -5,6 +5,7 @@
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/datasets/manifest.hpp"
 #include "nnb/datasets/synthetic.hpp"
+#include "real_data.hpp"
 
 #include <random>
 
@@ -117,6 +118,7 @@ Cloud subsample(const Cloud& cloud, Eigen::Index count) {
 }
 
 TEST_P(CrossCheck, SharedRealScans) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   // The real pairs, subsampled so the suite stays fast: the pair's query scan at its pose (near and far
   // from the model, as in registration) followed by model points (queries exactly on points).
   const nnb::datasets::DataOptions options;

@@ -5,6 +5,7 @@
 #include "nnb/datasets/loaders.hpp"
 #include "nnb/datasets/poses.hpp"
 #include "nnb/datasets/synthetic.hpp"
+#include "real_data.hpp"
 
 #include <gtest/gtest.h>
 
@@ -101,6 +102,7 @@ void PrintTo(const RealCase& c, std::ostream* os) { *os << c.file; }
 class RealFile : public ::testing::TestWithParam<RealCase> {};
 
 TEST_P(RealFile, ReadsTheManifestCounts) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const RealCase& c = GetParam();
   const LoadedPoints loaded = load_points(real_file(c.folder, c.file));
   EXPECT_EQ(loaded.n_read, c.n_read);
@@ -134,6 +136,7 @@ INSTANTIATE_TEST_SUITE_P(
     });
 
 TEST(RealFileValues, SickIsConvertedFromCentimetres) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   // scan000.3d begins with "10.1 0 0" and "10.0996 -0.0662149 0.0581712" (cm).
   const auto loaded = load_points(real_file("office-sick-3dtk", "scan000.3d"));
   EXPECT_DOUBLE_EQ(loaded.points(0, 0), 10.1 * 0.01);
@@ -146,6 +149,7 @@ TEST(RealFileValues, SickIsConvertedFromCentimetres) {
 }
 
 TEST(RealFileValues, BunnyPlyMatchesItsText) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   // The first vertex line after end_header, parsed independently here.
   const std::string text = slurp(real_file("bunny-stanford", "bun000.ply"));
   const std::size_t body = text.find("end_header\n") + std::strlen("end_header\n");
@@ -160,6 +164,7 @@ TEST(RealFileValues, BunnyPlyMatchesItsText) {
 }
 
 TEST(RealFileValues, KittiBinIsRawFloats) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const std::string bytes = slurp(real_file("kitti00-hdl64-gtsampoints", "000000.bin"));
   float last[3];
   std::memcpy(last, bytes.data() + bytes.size() - 12, 12);
@@ -178,6 +183,7 @@ TEST(RealFileValues, FormatOverrideWins) {
 // ---------------------------------------------------------------- poses
 
 TEST(Poses, SickFramesLastLineMatchesFormatsMd) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   Eigen::Matrix4d expected;
   expected << 0.999913, 0.00421739, -0.0124799, -3.6331,  //
       -0.00438033, 0.999905, -0.0130579, -9.08315,        //
@@ -207,6 +213,7 @@ TEST(Poses, EulerToMatrix4IsRxRyRz) {
 }
 
 TEST(Poses, SickPoseFileIsCloseToTheFramesResult) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const std::string path = real_file("office-sick-3dtk", "scan001.pose");
   const Eigen::Matrix4d pose = load_pose(path, PoseFormat::tdtk_pose, 0.01);
   EXPECT_DOUBLE_EQ(pose(0, 3), -3.10605 * 0.01);
@@ -220,6 +227,7 @@ TEST(Poses, SickPoseFileIsCloseToTheFramesResult) {
 }
 
 TEST(Poses, RowMajorMatrixFiles) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const Eigen::Matrix4d velodyne = load_pose(real_file("velodyne-hdl32-fastgicp", "relative.txt"), PoseFormat::matrix4_row_major);
   EXPECT_EQ(velodyne(0, 1), 0.0108432);
   EXPECT_EQ(velodyne(0, 3), 0.485657);
@@ -251,6 +259,7 @@ TEST(Sha256, KnownVectorsAndARealFile) {
   const TempDir dir;
   EXPECT_EQ(sha256_file(dir.file("abc", "abc")), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
   EXPECT_EQ(sha256_file(dir.file("empty", "")), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  NNB_SKIP_WITHOUT_REAL_DATA();
   EXPECT_EQ(sha256_file(real_file("office-sick-3dtk", "scan000.3d")),
             "0814652e3c1cd4ec2ad5a39ab282bdd278b9a0df0ac3866d0ab651a7b5b07652");
   expect_input_error([&] { sha256_file(dir.path() + "/none"); }, {"none"});
@@ -274,6 +283,7 @@ TEST(BadInput, EmptyFileInEveryFormat) {
 }
 
 TEST(BadInput, TruncatedBinaryPcd) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const TempDir dir;
   const std::string bytes = slurp(real_file("velodyne-hdl32-fastgicp", "251370668.pcd"));
   const auto half = dir.file("half.pcd", bytes.substr(0, bytes.size() / 2));
@@ -283,6 +293,7 @@ TEST(BadInput, TruncatedBinaryPcd) {
 }
 
 TEST(BadInput, TruncatedCompressedPcd) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const TempDir dir;
   const std::string bytes = slurp(real_file("office-kinect-pcl", "capture0001.pcd"));
   const auto half = dir.file("half.pcd", bytes.substr(0, bytes.size() / 2));
@@ -292,6 +303,7 @@ TEST(BadInput, TruncatedCompressedPcd) {
 }
 
 TEST(BadInput, CorruptCompressedPcdDoesNotCrash) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   // Same size, scrambled LZF bytes: PCL may decode garbage or refuse, but never crash.
   const TempDir dir;
   std::string bytes = slurp(real_file("office-kinect-pcl", "capture0001.pcd"));
@@ -445,10 +457,12 @@ TEST(Catalog, ManifestListsEveryPair) {
   ASSERT_TRUE(kinect.estimate);
   EXPECT_EQ(load_pair_pose(kinect, PoseKind::initial, {}).value(), Eigen::Matrix4d::Identity());
   EXPECT_FALSE(load_pair_pose(kinect, PoseKind::reference, {}));
+  NNB_SKIP_WITHOUT_REAL_DATA();
   EXPECT_NEAR(load_pair_pose(kinect, PoseKind::estimate, {}).value()(0, 3), -0.11094002, 0);
 }
 
 TEST(Catalog, EveryRealFileMatchesItsChecksumAndCount) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   for (const auto& pair : real_pairs()) {
     for (const Role role : {Role::model, Role::query}) {
       const NamedCloud cloud = load_pair_scan(pair, role, {});
@@ -462,6 +476,7 @@ TEST(Catalog, EveryRealFileMatchesItsChecksumAndCount) {
 }
 
 TEST(Catalog, QueryOfAPairIsMovedByItsReferencePose) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const NamedCloud model = resolve_cloud("bunny-stanford", Role::model, {});
   EXPECT_EQ(model.kind, "real_pair");
   EXPECT_EQ(model.points.cols(), 40256);
@@ -491,6 +506,7 @@ TEST(Catalog, SyntheticShapesAndFilePaths) {
   const NamedCloud shape = resolve_cloud("filled_cube", Role::model, options);
   EXPECT_EQ(shape.kind, "synthetic");
   EXPECT_EQ(shape.points, make_shape(Shape::filled_cube, 1000, 9));
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const std::string path = real_file("kitti00-hdl64-gtsampoints", "000001.bin");
   const NamedCloud file = resolve_cloud(path, Role::query, options);
   EXPECT_EQ(file.kind, "file");
@@ -506,6 +522,7 @@ TEST(Catalog, UnknownNameListsTheKnownOnes) {
 }
 
 TEST(Catalog, ChecksumMismatchNamesFileAndBothHashes) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const TempDir dir;
   std::string bytes = slurp(real_file("bunny-stanford", "bun000.ply"));
   bytes[bytes.size() / 2] ^= 0x01;

@@ -4,6 +4,7 @@
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/datasets/synthetic.hpp"
 #include "nnb/registry.hpp"
+#include "real_data.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -255,6 +256,7 @@ std::string fast_exact_adapter() {
 class IcpRealPair : public ::testing::TestWithParam<RealCase> {};
 
 TEST_P(IcpRealPair, LandsWithinToleranceOfTheReference) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
   const RealCase& c = GetParam();
   const ds::DataOptions data;
   const auto pair = ds::require_pair(c.pair);

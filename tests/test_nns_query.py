@@ -11,6 +11,8 @@ import sys
 import tempfile
 import unittest
 
+import real_data
+
 BINARY = None
 
 
@@ -139,9 +141,8 @@ class BadInput(unittest.TestCase):
         self.expect_refused(["--model", nan_xyz, "--query", "hollow_cube"], ["bad.xyz"])
 
     def test_checksum_mismatch(self):
-        real = os.environ.get("NNB_DATA_DIR_FOR_TESTS")
-        if not real or not os.path.isdir(os.path.join(real, "bunny-stanford")):
-            self.fail("the shared real data is needed for this test: set NNB_DATA_DIR_FOR_TESTS")
+        real_data.skip_unless_present(self)
+        real = str(real_data.data_dir())
         copy = os.path.join(self.dir, "data")
         shutil.copytree(os.path.join(real, "bunny-stanford"), os.path.join(copy, "bunny-stanford"))
         target = os.path.join(copy, "bunny-stanford", "bun000.ply")
@@ -158,4 +159,4 @@ class BadInput(unittest.TestCase):
 
 if __name__ == "__main__":
     BINARY = os.path.abspath(sys.argv.pop(1))
-    unittest.main()
+    sys.exit(real_data.exit_code(unittest.main(exit=False).result))
