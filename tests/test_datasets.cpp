@@ -457,8 +457,10 @@ TEST(Catalog, ManifestListsEveryPair) {
   ASSERT_TRUE(kinect.estimate);
   EXPECT_EQ(load_pair_pose(kinect, PoseKind::initial, {}).value(), Eigen::Matrix4d::Identity());
   EXPECT_FALSE(load_pair_pose(kinect, PoseKind::reference, {}));
-  NNB_SKIP_WITHOUT_REAL_DATA();
-  EXPECT_NEAR(load_pair_pose(kinect, PoseKind::estimate, {}).value()(0, 3), -0.11094002, 0);
+  // The one line here that reads a file: the rest checks the manifest alone, which needs no data.
+  if (nnb::test::real_data_present() || nnb::test::real_data_required()) {
+    EXPECT_NEAR(load_pair_pose(kinect, PoseKind::estimate, {}).value()(0, 3), -0.11094002, 0);
+  }
 }
 
 TEST(Catalog, EveryRealFileMatchesItsChecksumAndCount) {
