@@ -1,0 +1,38 @@
+# ctest script (cmake -P): a second build of the whole project (SOURCE_DIR) in WORK_DIR with the adapter
+# folder ADAPTER_DIR added by NNB_EXTRA_ADAPTERS and only the cheap adapters; builds only test_cross_check
+# and nns_query, runs the cross-check on ADAPTER (the adapter's name) and checks Table 1 lists it.
+# WORK_DIR is kept between runs: a rerun only rebuilds what changed.
+foreach(var SOURCE_DIR ADAPTER_DIR ADAPTER WORK_DIR GENERATOR CXX_COMPILER BUILD_TYPE SANITIZE)
+  if(NOT DEFINED ${var})
+    message(FATAL_ERROR "NnbTestExternalAdapter.cmake: -D${var}=... is missing")
+  endif()
+endforeach()
+
+function(nnb_run step)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc COMMAND_ECHO STDOUT)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "external adapter test: ${step} failed (${rc})")
+  endif()
+endfunction()
+
+set(off "")
+foreach(lib PCL OPEN3D CGAL FLANN SPATIALINDEX ANN NANOFLANN OURS)
+  list(APPEND off -DNNB_WITH_${lib}=OFF)
+endforeach()
+nnb_run(configure ${CMAKE_COMMAND} -S "${SOURCE_DIR}" -B "${WORK_DIR}" -G "${GENERATOR}"
+        "-DCMAKE_BUILD_TYPE=${BUILD_TYPE}" "-DCMAKE_CXX_COMPILER=${CXX_COMPILER}" "-DNNB_SANITIZE=${SANITIZE}"
+        "-DNNB_EXTRA_ADAPTERS=${ADAPTER_DIR}" ${off})
+nnb_run(build ${CMAKE_COMMAND} --build "${WORK_DIR}" --target test_cross_check nns_query -j 2)
+# A filter that matches nothing passes too: require that tests ran.
+execute_process(COMMAND "${WORK_DIR}/tests/test_cross_check" "--gtest_filter=*/${ADAPTER}*"
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE out)
+message(STATUS "test_cross_check:\n${out}")
+if(NOT rc EQUAL 0 OR NOT out MATCHES "PASSED  \\] [1-9]")
+  message(FATAL_ERROR "external adapter test: the cross-check of ${ADAPTER} failed or ran no test (exit ${rc})")
+endif()
+
+execute_process(COMMAND "${WORK_DIR}/bench/nns_query" --table1 RESULT_VARIABLE rc OUTPUT_VARIABLE table)
+message(STATUS "nns_query --table1:\n${table}")
+if(NOT rc EQUAL 0 OR NOT table MATCHES "(^|\n)[| ]*${ADAPTER}[ |]")
+  message(FATAL_ERROR "external adapter test: nns_query --table1 (exit ${rc}) does not list ${ADAPTER}")
+endif()
