@@ -54,10 +54,11 @@ inline Eigen::Index first_out_of_range(const Cloud& cloud) {
 inline void check_coordinate_range(const Cloud& cloud, const std::string& what) {
   const Eigen::Index bad = first_out_of_range(cloud);
   if (bad < 0) return;
-  std::ostringstream msg;
+  std::ostringstream bound, msg;
+  bound << kMaxAbsCoordinate_m;
   msg.precision(17);
   msg << what << ": point " << bad << " (" << cloud(0, bad) << ", " << cloud(1, bad) << ", " << cloud(2, bad)
-      << ") has a coordinate beyond the supported range |c| <= " << kMaxAbsCoordinate_m << " m";
+      << ") has a coordinate beyond the supported range |c| <= " << bound.str() << " m";
   throw InputError(msg.str());
 }
 
