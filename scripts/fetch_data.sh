@@ -14,9 +14,11 @@ manifest="${NNB_MANIFEST:-${root}/datasets/manifest.json}"
 dest="${NNB_DATA_DIR:-${root}/data/real}"
 mirror="${NNB_DATA_MIRROR:-}"
 
-if [[ $# -gt 0 ]]; then
+if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
   sed -n '2,8s/^# \{0,1\}//p' "$0"
-  [[ "$1" == "-h" || "$1" == "--help" ]] && exit 0
+  exit 0
+elif [[ $# -gt 0 ]]; then
+  echo "fetch_data: error: no arguments taken ('$1'); settings are environment variables, see --help" >&2
   exit 2
 fi
 
