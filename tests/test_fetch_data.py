@@ -4,7 +4,8 @@
 A temporary manifest (NNB_MANIFEST) lists small files kept in a local mirror (NNB_DATA_MIRROR), one file given
 inline as text, so no real scan and no network is needed. Fetches into an empty folder, reruns without fetching,
 repairs a damaged file, and fails with one line and no file left behind on a bad checksum, a missing mirror
-file, a failed download and a bad manifest; an interrupted run leaves no temp file either.
+file, a failed download and a bad manifest; an interrupted run leaves no temp file either. Then the project's
+manifest: sizes and URLs of every file, and a fetch of all of them when the real scans are at hand.
 """
 import hashlib
 import json
@@ -164,5 +165,32 @@ check(time.time() < deadline, "the interrupted run never started copying")
 os.killpg(proc.pid, signal.SIGTERM)
 check(proc.wait(timeout=30) != 0, "an interrupted run exited 0")
 check(files_under(slow_target) == [], f"an interrupted run left files: {files_under(slow_target)}")
+
+# The project's manifest: every file has its size and either a pinned raw GitHub URL or its bytes inline.
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import real_data  # noqa: E402
+
+project_manifest = real_data.SOURCE / "datasets" / "manifest.json"
+for pair in json.loads(project_manifest.read_text())["pairs"]:
+    entries = [pair["model"], pair["query"]] + [pair[k] for k in ("reference_pose", "initial_pose", "estimate_pose")
+                                                if pair.get(k)] + pair.get("other_files", [])
+    for e in entries:
+        label = f"{pair['folder']}/{e['file']}"
+        check(isinstance(e.get("bytes"), int) and e["bytes"] > 0, f"{label}: no size")
+        if e.get("url") is None:
+            text = e.get("text", "").encode()
+            check(len(text) == e["bytes"] and sha(text) == e["sha256"], f"{label}: inline text does not match")
+        else:
+            parts = e["url"].split("/")
+            check(e["url"].startswith("https://raw.githubusercontent.com/") and len(parts[5]) == 40,
+                  f"{label}: not a raw GitHub URL pinned to a commit: {e['url']}")
+# With the real scans at hand, the script fetches all of them from there (CI: always).
+if real_data.present():
+    real_target = WORK / "real_data"
+    proc = run(real_target, real_data.data_dir(), manifest=project_manifest)
+    check(" 0 verified, " in proc.stdout, f"real scans: {proc.stdout}")
+    proc = run(real_target, real_data.data_dir(), manifest=project_manifest)
+    check(" 0 fetched" in proc.stdout, f"real scans, second run: {proc.stdout}")
+    shutil.rmtree(real_target)
 
 print("fetch_data: ok")
