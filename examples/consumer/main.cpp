@@ -10,8 +10,9 @@ int main() {
   std::mt19937_64 rng(42);
   std::uniform_real_distribution<double> coord(-1.0, 1.0);
   nnb::Cloud model(3, 3000), queries(3, 300);
-  for (Eigen::Index i = 0; i < model.cols(); ++i) model.col(i) = Eigen::Vector3d(coord(rng), coord(rng), coord(rng));
-  for (Eigen::Index i = 0; i < queries.cols(); ++i) queries.col(i) = 1.2 * Eigen::Vector3d(coord(rng), coord(rng), coord(rng));
+  const auto point = [&] { return Eigen::Vector3d(coord(rng), coord(rng), coord(rng)); };
+  for (Eigen::Index i = 0; i < model.cols(); ++i) model.col(i) = point();
+  for (Eigen::Index i = 0; i < queries.cols(); ++i) queries.col(i) = 1.2 * point();
   const int k = 3;
   const double max_dist_m = 0.15;
 
@@ -32,7 +33,8 @@ int main() {
     const auto first = expected.offsets[static_cast<std::size_t>(q)];
     ok = ok && buffers.best.size() == expected.count(static_cast<std::size_t>(q));
     for (std::size_t i = 0; ok && i < buffers.best.size(); ++i) {
-      ok = buffers.best[i].index == expected.indices[first + i] && buffers.best[i].sq_dist == expected.sq_dists[first + i];
+      ok = buffers.best[i].index == expected.indices[first + i] &&
+           buffers.best[i].sq_dist == expected.sq_dists[first + i];
     }
   }
   std::printf("%zu neighbours for %zu queries: %s\n", expected.total(), expected.n_queries(), ok ? "ok" : "MISMATCH");

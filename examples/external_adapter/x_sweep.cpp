@@ -46,7 +46,8 @@ class XSweep final : public SearchIndex {
     model_ = &model;
     order_.resize(static_cast<std::size_t>(model.cols()));
     std::iota(order_.begin(), order_.end(), PointIndex{0});
-    std::stable_sort(order_.begin(), order_.end(), [&](PointIndex a, PointIndex b) { return model(0, a) < model(0, b); });
+    std::stable_sort(order_.begin(), order_.end(),
+                     [&](PointIndex a, PointIndex b) { return model(0, a) < model(0, b); });
     xs_.resize(order_.size());
     for (std::size_t i = 0; i < order_.size(); ++i) xs_[i] = model(0, order_[i]);
   }
