@@ -55,7 +55,7 @@ RawPoints read_3dtk(const std::string& path, const std::string& text);
 RawPoints read_xyz_text(const std::string& path, const std::string& text);
 RawPoints read_xyz_float32_bin(const std::string& path, const std::string& bytes);
 RawPoints read_ply(const std::string& path, const std::string& bytes);
-/// Through PCL's loadPCDFile (the only translation unit that includes PCL).
+/// ascii, binary and binary_compressed PCD, every size checked against the file first.
 RawPoints read_pcd(const std::string& path);
 
 }  // namespace nnb::datasets::detail

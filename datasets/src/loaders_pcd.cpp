@@ -1,14 +1,11 @@
-// PCD: ascii parsed here (strictly), binary and binary_compressed through PCL once the header's sizes are
-// checked against the file. The only translation unit that includes PCL.
-// PCL's own error prints are silenced for the call: the InputError thrown here is the one line.
+// PCD v0.7 (FORMATS.md section 3): ascii, binary and binary_compressed (LZF), read here rather than through
+// PCL, which turns ascii words into 0, allocates whatever a header claims and crashes on some headers.
+// Values are decoded as PCL stores them (float fields as float), so valid files load to the same points.
 #include "loaders_detail.hpp"
-
-#include <pcl/PCLPointCloud2.h>
-#include <pcl/console/print.h>
-#include <pcl/io/pcd_io.h>
 
 #include <algorithm>
 #include <climits>
+#include <cstdint>
 #include <cstring>
 #include <sstream>
 #include <vector>
@@ -16,39 +13,20 @@
 namespace nnb::datasets::detail {
 namespace {
 
-/// Restores PCL's verbosity on every way out.
-class QuietPcl {
- public:
-  QuietPcl() : saved_(pcl::console::getVerbosityLevel()) { pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS); }
-  ~QuietPcl() { pcl::console::setVerbosityLevel(saved_); }
-  QuietPcl(const QuietPcl&) = delete;
-  QuietPcl& operator=(const QuietPcl&) = delete;
-
- private:
-  pcl::console::VERBOSITY_LEVEL saved_;
-};
-
-double read_field(const std::uint8_t* p, std::uint8_t datatype) {
-  switch (datatype) {
-    case pcl::PCLPointField::INT8: { std::int8_t v; std::memcpy(&v, p, 1); return v; }
-    case pcl::PCLPointField::UINT8: { std::uint8_t v; std::memcpy(&v, p, 1); return v; }
-    case pcl::PCLPointField::INT16: { std::int16_t v; std::memcpy(&v, p, 2); return v; }
-    case pcl::PCLPointField::UINT16: { std::uint16_t v; std::memcpy(&v, p, 2); return v; }
-    case pcl::PCLPointField::INT32: { std::int32_t v; std::memcpy(&v, p, 4); return v; }
-    case pcl::PCLPointField::UINT32: { std::uint32_t v; std::memcpy(&v, p, 4); return v; }
-    case pcl::PCLPointField::FLOAT32: { float v; std::memcpy(&v, p, 4); return v; }
-    case pcl::PCLPointField::FLOAT64: { double v; std::memcpy(&v, p, 8); return v; }
-    default: return 0.0;
-  }
-}
-
-int field_bytes(std::uint8_t datatype) {
-  switch (datatype) {
-    case pcl::PCLPointField::INT8: case pcl::PCLPointField::UINT8: return 1;
-    case pcl::PCLPointField::INT16: case pcl::PCLPointField::UINT16: return 2;
-    case pcl::PCLPointField::INT32: case pcl::PCLPointField::UINT32: case pcl::PCLPointField::FLOAT32: return 4;
-    case pcl::PCLPointField::FLOAT64: return 8;
-    default: return 0;
+/// One binary value of a field's type (little-endian, as PCL writes on the hosts it runs on).
+double decode_value(const char* p, char type, char size) {
+  switch (size) {
+    case '1': return type == 'I' ? double(static_cast<std::int8_t>(*p)) : double(static_cast<std::uint8_t>(*p));
+    case '2': { std::int16_t s; std::uint16_t u; std::memcpy(&s, p, 2); std::memcpy(&u, p, 2); return type == 'I' ? s : u; }
+    case '4': {
+      if (type == 'F') { float f; std::memcpy(&f, p, 4); return f; }
+      std::int32_t s; std::uint32_t u; std::memcpy(&s, p, 4); std::memcpy(&u, p, 4); return type == 'I' ? s : u;
+    }
+    default: {
+      if (type == 'F') { double d; std::memcpy(&d, p, 8); return d; }
+      std::int64_t s; std::uint64_t u; std::memcpy(&s, p, 8); std::memcpy(&u, p, 8);
+      return type == 'I' ? static_cast<double>(s) : static_cast<double>(u);
+    }
   }
 }
 
@@ -140,8 +118,7 @@ PcdLayout parse_pcd_header(const std::string& path, const std::string& bytes) {
   return layout;
 }
 
-/// Checks every size the header claims against the file before anything is allocated: PCL allocates
-/// what the header says (and crashes on some malformed headers instead of returning an error).
+/// Checks every size the header claims against the file before anything is allocated.
 void check_pcd_payload(const std::string& path, const std::string& bytes, const PcdLayout& layout) {
   const unsigned long long payload = bytes.size() - layout.payload_at;
   const std::string file_size = " (file of " + std::to_string(bytes.size()) + " bytes)";
@@ -251,68 +228,92 @@ RawPoints read_ascii_pcd(const std::string& path, const std::string& bytes, cons
   return raw;
 }
 
+/// Field index of each axis (the last field of that name, as PCL picks it) and its byte offset in a
+/// record (array of structures) or in a field block (structure of arrays: n values per field).
+struct AxisPlaces {
+  int field[3] = {-1, -1, -1};
+  unsigned long long offset[3] = {0, 0, 0};
+};
+
+AxisPlaces axis_places(const PcdLayout& layout, bool structure_of_arrays) {
+  AxisPlaces places;
+  unsigned long long offset = 0;
+  for (std::size_t f = 0; f < layout.fields.size(); ++f) {
+    for (int a = 0; a < 3; ++a) {
+      if (layout.fields[f] == std::string(1, static_cast<char>('x' + a))) {
+        places.field[a] = static_cast<int>(f);
+        places.offset[a] = structure_of_arrays ? layout.n * offset : offset;
+      }
+    }
+    offset += layout.counts[f] * static_cast<unsigned long long>(layout.sizes[f][0] - '0');
+  }
+  return places;
+}
+
+/// x y z of every point from n * point_bytes checked bytes, records or field blocks.
+RawPoints read_binary_pcd(const char* data, const PcdLayout& layout, bool structure_of_arrays) {
+  const AxisPlaces places = axis_places(layout, structure_of_arrays);
+  RawPoints raw;
+  raw.xyz.resize(3 * layout.n);
+  for (unsigned long long i = 0; i < layout.n; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      const int f = places.field[a];
+      const unsigned long long stride =
+          structure_of_arrays ? layout.counts[f] * static_cast<unsigned long long>(layout.sizes[f][0] - '0') : layout.point_bytes;
+      raw.xyz[3 * i + a] = decode_value(data + places.offset[a] + i * stride, layout.types[f][0], layout.sizes[f][0]);
+    }
+  }
+  return raw;
+}
+
+/// liblzf's format (FORMATS.md), every read and write bounds-checked; the sizes were checked by
+/// check_pcd_payload, so the output buffer is at most 88 times the compressed block.
+std::string lzf_decompress(const std::string& path, const std::string& bytes, std::size_t at) {
+  std::uint32_t sizes[2];
+  std::memcpy(sizes, bytes.data() + at, 8);
+  const auto* in = reinterpret_cast<const unsigned char*>(bytes.data() + at + 8);
+  const std::size_t in_size = sizes[0];
+  std::string out(sizes[1], '\0');
+  std::size_t ip = 0, op = 0;
+  auto corrupt = [&] { return InputError("corrupt compressed data in PCD file " + path + " at byte " + std::to_string(at + 8 + ip)); };
+  while (ip < in_size) {
+    std::size_t ctrl = in[ip++];
+    if (ctrl < 32) {
+      const std::size_t len = ctrl + 1;
+      if (len > in_size - ip || len > out.size() - op) throw corrupt();
+      std::memcpy(&out[op], in + ip, len);
+      ip += len;
+      op += len;
+      continue;
+    }
+    std::size_t len = ctrl >> 5;
+    if (len == 7) {
+      if (ip >= in_size) throw corrupt();
+      len += in[ip++];
+    }
+    if (ip >= in_size) throw corrupt();
+    const std::size_t back = ((ctrl & 0x1f) << 8) + in[ip++] + 1;
+    len += 2;
+    if (back > op || len > out.size() - op) throw corrupt();
+    for (std::size_t k = 0; k < len; ++k, ++op) out[op] = out[op - back];
+  }
+  if (op != out.size()) {
+    throw InputError("truncated PCD file " + path + ": compressed data gives " + std::to_string(op) + " of " +
+                     std::to_string(out.size()) + " bytes");
+  }
+  return out;
+}
+
 }  // namespace
 
 RawPoints read_pcd(const std::string& path) {
-  {
-    const std::string bytes = read_file_bytes(path);
-    const PcdLayout layout = parse_pcd_header(path, bytes);
-    check_pcd_payload(path, bytes, layout);
-    if (layout.data == "ascii") return read_ascii_pcd(path, bytes, layout);
-  }
-  pcl::PCLPointCloud2 cloud;
-  {
-    const QuietPcl quiet;
-    pcl::PCDReader reader;
-    Eigen::Vector4f origin;
-    Eigen::Quaternionf orientation;
-    int version = 0, data_type = 0;
-    unsigned int data_index = 0;
-    try {
-      if (reader.readHeader(path, cloud, origin, orientation, version, data_type, data_index) < 0) {
-        throw InputError("wrong PCD header in " + path);
-      }
-      if (reader.read(path, cloud) < 0) {
-        throw InputError("cannot read the data of PCD file " + path + " (truncated or corrupt)");
-      }
-    } catch (const InputError&) {
-      throw;
-    } catch (const std::exception& e) {  // pcl::PCLException and std::bad_alloc from absurd headers
-      throw InputError("cannot read PCD file " + path + ": " + e.what());
-    }
-  }
-
-  const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
-  int offset[3] = {-1, -1, -1};
-  std::uint8_t type[3] = {0, 0, 0};
-  for (const auto& field : cloud.fields) {
-    for (int a = 0; a < 3; ++a) {
-      if (field.name == std::string(1, static_cast<char>('x' + a))) {
-        offset[a] = static_cast<int>(field.offset);
-        type[a] = field.datatype;
-      }
-    }
-  }
-  for (int a = 0; a < 3; ++a) {
-    if (offset[a] < 0 || field_bytes(type[a]) == 0) {
-      throw InputError("wrong PCD header in " + path + ": no numeric x, y and z fields");
-    }
-    if (static_cast<std::size_t>(offset[a] + field_bytes(type[a])) > cloud.point_step) {
-      throw InputError("wrong PCD header in " + path + ": field outside the point record");
-    }
-  }
-  if (cloud.data.size() < n * cloud.point_step) {
-    throw InputError("truncated PCD file " + path + ": " + std::to_string(cloud.data.size()) + " bytes of data for " +
-                     std::to_string(n) + " points");
-  }
-
-  RawPoints raw;
-  raw.xyz.resize(3 * n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint8_t* record = cloud.data.data() + i * cloud.point_step;
-    for (int a = 0; a < 3; ++a) raw.xyz[3 * i + a] = read_field(record + offset[a], type[a]);
-  }
-  return raw;
+  const std::string bytes = read_file_bytes(path);
+  const PcdLayout layout = parse_pcd_header(path, bytes);
+  check_pcd_payload(path, bytes, layout);
+  if (layout.data == "ascii") return read_ascii_pcd(path, bytes, layout);
+  if (layout.data == "binary") return read_binary_pcd(bytes.data() + layout.payload_at, layout, false);
+  const std::string soa = lzf_decompress(path, bytes, layout.payload_at);
+  return read_binary_pcd(soa.data(), layout, true);
 }
 
 }  // namespace nnb::datasets::detail

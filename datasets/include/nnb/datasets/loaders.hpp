@@ -1,7 +1,8 @@
 #pragma once
-// Readers for the real scan formats (see ../shared/datasets/real/FORMATS.md): 3DTK .3d, PCD (through
-// PCL), PLY ascii/binary, raw float32 xyz .bin and plain x y z text. Every reader returns the valid
-// points in metres and counts what it dropped; bad input throws nnb::InputError with one line.
+// Readers for the real scan formats (see ../shared/datasets/real/FORMATS.md): 3DTK .3d, PCD (ascii,
+// binary, binary_compressed), PLY ascii/binary, raw float32 xyz .bin and plain x y z text. Every reader
+// returns the valid points in metres and counts what it dropped; bad input throws nnb::InputError with
+// one line, and no header's count is believed before the file's size confirms it.
 #include "nnb/cloud.hpp"
 
 #include <cstddef>

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (fuzz/) with clang++-14 in build/fuzz and fuzzes each for SECONDS (default
+# 600), one after another, single job. Seeds: fuzz/seeds/<target>/ and the regression corpus. Crashes land
+# in build/fuzz/artifacts/<target>/; once fixed, copy them to fuzz/regressions/<target>/ (ctest replays those).
+#   scripts/fuzz.sh [SECONDS] [TARGET...]
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+seconds="${1:-600}"
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(pcd ply text3d xyz bin experiment)
+build="$root/build/fuzz"
+
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNNB_FUZZ=ON \
+      -DNNB_BUILD_TESTS=OFF -DNNB_BUILD_BENCH=OFF \
+      -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 >/dev/null
+cmake --build "$build" -j1 --target $(printf 'fuzz_%s ' "${targets[@]}")
+
+status=0
+for target in "${targets[@]}"; do
+  corpus="$build/corpus/$target"
+  artifacts="$build/artifacts/$target"
+  mkdir -p "$corpus" "$artifacts"
+  echo "== fuzz_$target for ${seconds}s"
+  # rss_limit: a loader that allocates what a header claims shows up as an out-of-memory finding.
+  if ! (cd "$build" && ASAN_OPTIONS=detect_leaks=1 "$build/fuzz/fuzz_$target" -max_total_time="$seconds" \
+          -rss_limit_mb=1024 -malloc_limit_mb=512 -timeout=10 -print_final_stats=1 \
+          -artifact_prefix="$artifacts/" "$corpus" "$root/fuzz/seeds/$target" "$root/fuzz/regressions/$target" \
+          >"$build/fuzz_$target.log" 2>&1); then
+    echo "   finding: see $build/fuzz_$target.log and $artifacts/"
+    status=1
+  fi
+  grep -E "^stat::(number_of_executed_units|new_units_added)" "$build/fuzz_$target.log" || true
+done
+exit $status
