@@ -8,6 +8,7 @@
 // At the end it prints, from this run's own timings (the fastest repetition of each), the issue's
 // ratios marked PASS/MISS, and the index memory per model point. The table goes to stdout with the
 // console output; use --benchmark_out=FILE --benchmark_out_format=json for the raw results.
+#include "cli_common.hpp"
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/datasets/synthetic.hpp"
 #include "nnb/registry.hpp"
@@ -18,6 +19,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
+#include <optional>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -41,6 +44,18 @@ struct PairSpec {
   std::vector<double> max_dist_m;  // the distances measured on it
   bool targets;                    // the targets apply (else the ratios are for information)
 };
+
+// --data-dir as given (empty: the default lookup).
+std::string& data_dir() {
+  static std::string dir;
+  return dir;
+}
+
+nnb::datasets::DataOptions sick_options() {
+  nnb::datasets::DataOptions options;
+  options.data_dir = data_dir();
+  return options;
+}
 
 const std::vector<PairSpec>& pairs() {
   static const std::vector<PairSpec> all{{"fig3", {0.02, 0.1, 0.3, 1.0}, true},
@@ -74,8 +89,8 @@ const Clouds& clouds(const std::string& pair) {
   } else {
     try {
       using nnb::datasets::Role;
-      c.model = nnb::datasets::resolve_cloud("office-sick-3dtk", Role::model, nnb::datasets::DataOptions{}).points;
-      c.queries = nnb::datasets::resolve_cloud("office-sick-3dtk", Role::query, nnb::datasets::DataOptions{}).points;
+      c.model = nnb::datasets::resolve_cloud("office-sick-3dtk", Role::model, sick_options()).points;
+      c.queries = nnb::datasets::resolve_cloud("office-sick-3dtk", Role::query, sick_options()).points;
     } catch (const std::exception& e) {
       c.error = e.what();
     }
@@ -247,10 +262,45 @@ void print_library_memory(const std::vector<Subject>& all) {
   }
 }
 
+// Takes out the options micro_nns shares with the other programs (--version, --data-dir) before Google
+// Benchmark reads its own; returns the exit code when the program should stop now.
+std::optional<int> take_shared_options(int& argc, char** argv) {
+  int kept = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--version") {
+      std::cout << nnb::cli::version_line("micro_nns") << "\n";
+      return 0;
+    }
+    if (arg == "--help" || arg == "-h") {
+      std::cout << "micro_nns: build and ranged 1-NN of ours against the libraries (times in ms)\n"
+                << "  --version          " << "print the version, git commit and build type, and exit\n"
+                << "  --data-dir DIR     " << nnb::cli::kDataDirHelp << "\n"
+                << "and Google Benchmark's options:\n";
+      argv[kept++] = argv[i];
+    } else if (arg == "--data-dir" || arg.rfind("--data-dir=", 0) == 0) {
+      if (arg == "--data-dir" && i + 1 == argc) {
+        std::cerr << "micro_nns: error: --data-dir needs a folder (see --help)\n";
+        return 2;
+      }
+      data_dir() = arg == "--data-dir" ? argv[++i] : arg.substr(std::strlen("--data-dir="));
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  argc = kept;
+  return std::nullopt;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (const auto code = take_shared_options(argc, argv)) return *code;
   benchmark::Initialize(&argc, argv);
+  if (argc > 1) {
+    std::cerr << "micro_nns: error: unknown option '" << argv[1] << "' (see --help)\n";
+    return 2;
+  }
   const std::vector<Subject> all = subjects();
   for (const Subject& s : all) {
     benchmark::RegisterBenchmark(("Build/" + s.label).c_str(), [s](benchmark::State& st) { bench_build(st, s); })

@@ -94,7 +94,7 @@ int run(const Options& opt) {
   if (opt.out.empty() || opt.out == "-") {
     std::cout << csv;
   } else {
-    nnb::cli::write_file_atomically(opt.out, csv);
+    nnb::files::write_file_atomically(opt.out, csv);
   }
   if (!opt.stats.empty()) {
     const auto& info = index->info();
@@ -119,7 +119,7 @@ int run(const Options& opt) {
         {"index_bytes", index->index_bytes()},
         {"build_type", nnb::cli::build_type()},
     };
-    nnb::cli::write_file_atomically(opt.stats, stats.dump(2) + "\n");
+    nnb::files::write_file_atomically(opt.stats, stats.dump(2) + "\n");
   }
   std::cerr << "nns_query: " << opt.adapter << " " << opt.search << ": " << found.queries_with_neighbours() << " of "
             << found.n_queries() << " queries found a neighbour; build " << build_seconds << " s, query "
@@ -145,13 +145,9 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", opt.repeat, "Answer the query set N times; query_seconds is the median")
       ->capture_default_str();
   app.add_option("--stats", opt.stats, "Write JSON statistics to this file");
-  app.add_option("--data-dir", opt.data.data_dir, "Real scan directory (default: $NNB_DATA_DIR or ../shared/datasets/real)");
+  app.add_option("--data-dir", opt.data.data_dir, nnb::cli::kDataDirHelp);
   app.add_option("--points", opt.data.synthetic_points, "Points per synthetic set")->capture_default_str();
   app.add_option("--seed", opt.data.seed, "Seed of the synthetic sets")->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
-  }
+  if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "nns_query")) return *code;
   return nnb::cli::run_reporting_errors("nns_query", [&] { return run(opt); });
 }

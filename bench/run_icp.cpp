@@ -203,7 +203,7 @@ int run_experiment(const std::string& name, std::string out_path, const ds::Data
           }
           print_summary(std::cout, rec, false);
           records.push_back(std::move(rec));
-          nnb::cli::write_file_atomically(out_path, icp::results_json(records, nnb::cli::build_type(),
+          nnb::files::write_file_atomically(out_path, icp::results_json(records, nnb::cli::build_type(),
                                                                       context_json(e.name, data)));
         }
       }
@@ -239,15 +239,11 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--min-step-rad", s.min_rotation_step_rad, "... and turns less than this (rad)")->capture_default_str();
     app.add_option("--query-stride", s.query_stride, "use every N-th query point")->capture_default_str();
-    app.add_option("--data-dir", data.data_dir, "real scan directory (default: NNB_DATA_DIR or the build's)");
+    app.add_option("--data-dir", data.data_dir, nnb::cli::kDataDirHelp);
     app.add_option("--points", data.synthetic_points, "points per synthetic set")->capture_default_str();
     app.add_option("--seed", data.seed, "seed of the synthetic sets")->capture_default_str();
     app.add_option("--out", out_path, "results file (JSON, Google Benchmark schema), written atomically");
-    try {
-      app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-      return app.exit(e);
-    }
+    if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_icp")) return *code;
     nnb::cli::warn_if_not_release(std::cerr);
     if (!experiment.empty()) {
       if (!adapter.empty() || !model_spec.empty() || !query_spec.empty()) {
@@ -267,7 +263,7 @@ int main(int argc, char** argv) {
                              options_of(s, icp::checked_rigid(in.initial, "the initial pose " + initial_file)),
                              s.query_stride, 0);
     print_summary(std::cout, rec, true);
-    nnb::cli::write_file_atomically(out_path, icp::results_json({rec}, nnb::cli::build_type(), context_json("", data)));
+    nnb::files::write_file_atomically(out_path, icp::results_json({rec}, nnb::cli::build_type(), context_json("", data)));
     std::cout << "written " << out_path << "\n";
     return rec.result.failure.empty() ? 0 : 3;
   });

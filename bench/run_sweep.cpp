@@ -6,6 +6,8 @@
 #include "sweep/results_file.hpp"
 #include "sweep/runner.hpp"
 
+#include "cli_common.hpp"
+#include "files.hpp"
 #include "nnb/registry.hpp"
 
 #include <CLI/CLI.hpp>
@@ -25,7 +27,7 @@ using nnb::bench::read_machine_info;
 
 struct Flags {
   std::string experiment = "quick";
-  std::string adapters, datasets, dists, out;
+  std::string adapters, datasets, dists, out, data_dir;
   std::optional<int> repetitions;
   std::optional<double> budget_s;
   std::optional<std::size_t> points;
@@ -49,6 +51,31 @@ Experiment configure(const Flags& flags, const std::vector<std::string>& all_ada
   return e;
 }
 
+// Files the run reads, which its output must never replace.
+std::vector<std::string> input_files(const LoadedData& data, const Experiment& experiment) {
+  std::vector<std::string> files{experiment.file};
+  for (const auto* role : {&data.models, &data.queries}) {
+    for (const auto& [spec, cloud] : *role) {
+      if (cloud.kind == "file") files.push_back(cloud.source);
+    }
+  }
+  return files;
+}
+
+// The same command line with --resume, quoted for a POSIX shell.
+std::string resume_command(int argc, char** argv) {
+  std::string command;
+  bool resumes = false;
+  for (int i = 0; i < argc; ++i) {
+    std::string arg = argv[i];
+    resumes = resumes || arg == "--resume";
+    std::string quoted = "'";
+    for (char c : arg) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    command += (i ? " " : "") + quoted + "'";
+  }
+  return resumes ? command : command + " --resume";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -64,14 +91,10 @@ int main(int argc, char** argv) {
   app.add_option("--points", flags.points, "points per synthetic data set (the paper: 60000)");
   app.add_option("--memory-limit-gib", flags.memory_limit_gib,
                  "memory per build (index or peak RSS growth) above which larger models are skipped (default 8)");
-  app.add_option("--out", flags.out, "results file (default: results/sweep_<experiment>.json in the source tree)");
+  app.add_option("--out", flags.out, "results file (default: results/sweep_<experiment>.json, from the current folder)");
+  app.add_option("--data-dir", flags.data_dir, nnb::cli::kDataDirHelp);
   app.add_flag("--resume", flags.resume, "finish the cells missing from --out (same configuration only)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;
-  }
+  if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_sweep")) return *code;
 
   const BuildInfo build = read_build_info();
   if (!build.release()) {
@@ -83,9 +106,12 @@ int main(int argc, char** argv) {
   try {
     const auto all_adapters = nnb::adapter_names();
     const Experiment experiment = configure(flags, all_adapters, build.source_dir);
-    const std::string out =
-        flags.out.empty() ? build.source_dir + "/results/sweep_" + experiment.name + ".json" : flags.out;
-    const LoadedData data = load_data(experiment);
+    const std::string out = flags.out.empty() ? "results/sweep_" + experiment.name + ".json" : flags.out;
+    const LoadedData data = load_data(experiment, flags.data_dir);
+    nnb::files::check_output_path(out, input_files(data, experiment));
+    const nnb::files::OutputLock lock(out);
+    nnb::files::remove_stale_temporaries(out);
+    nnb::files::catch_interrupts();
     const auto adapters = plan_adapters(experiment);
     ResultsFile results(out, {&experiment, &adapters, &data, read_machine_info(), build});
     if (flags.resume) {
@@ -121,8 +147,11 @@ int main(int argc, char** argv) {
     }
     std::cerr << "run_sweep: wrote " << results.records().size() << " records to " << out << "\n";
     return 0;
+  } catch (const Interrupted& e) {
+    std::cerr << "run_sweep: " << e.what() << "; finish with: " << resume_command(argc, argv) << "\n";
+    return 128 + nnb::files::interrupted();
   } catch (const nnb::InputError& e) {
-    std::cerr << "run_sweep: " << e.what() << "\n";
+    std::cerr << "run_sweep: error: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {
     std::cerr << "run_sweep: failed: " << e.what() << "\n";

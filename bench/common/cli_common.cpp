@@ -1,5 +1,6 @@
 #include "cli_common.hpp"
 
+#include "machine.hpp"
 #include "nnb/registry.hpp"
 
 #include <unistd.h>
@@ -25,6 +26,30 @@ int run_reporting_errors(const std::string& program, const std::function<int()>&
   }
 }
 
+const char* const kDataDirHelp =
+    "real scan folder (default: $NNB_DATA_DIR, else data/real in the clone, else ../shared/datasets/real "
+    "beside it; scripts/fetch_data.sh fills data/real)";
+
+std::string version_line(const std::string& program) {
+  const std::string commit = nnb::bench::read_build_info().git_commit;
+  return program + " " + NNB_VERSION + " (git " + (commit.empty() ? "unknown" : commit) + ", " + build_type() + ")";
+}
+
+std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, const std::string& program) {
+  app.set_version_flag("--version", [program] { return version_line(program); },
+                       "print the version, git commit and build type, and exit");
+  try {
+    app.parse(argc, argv);
+    return std::nullopt;
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    std::string message = e.what();
+    for (char& c : message) c = c == '\n' ? ' ' : c;
+    std::cerr << program << ": error: " << message << " (see --help)\n";
+    return 2;
+  }
+}
+
 Params parse_params(const std::vector<std::string>& words) {
   Params params;
   for (const auto& word : words) {
@@ -35,29 +60,6 @@ Params parse_params(const std::vector<std::string>& words) {
     params[word.substr(0, eq)] = word.substr(eq + 1);
   }
   return params;
-}
-
-void write_file_atomically(const std::string& path, const std::string& text) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  const fs::path temp = dir / ("." + target.filename().string() + ".tmp." + std::to_string(::getpid()));
-  std::FILE* file = std::fopen(temp.c_str(), "wb");
-  if (file == nullptr) throw InputError("cannot write " + temp.string() + ": " + std::strerror(errno));
-  const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
-  const bool flushed = std::fflush(file) == 0 && ::fsync(::fileno(file)) == 0;
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !flushed || !closed) {
-    fs::remove(temp, ec);
-    throw InputError("cannot write " + temp.string() + ": " + std::strerror(errno));
-  }
-  fs::rename(temp, target, ec);
-  if (ec) {
-    fs::remove(temp, ec);
-    throw InputError("cannot replace " + path + ": " + ec.message());
-  }
 }
 
 std::string build_type() {

@@ -1,8 +1,12 @@
 #pragma once
-// What every command-line program here shares: error reporting, adapter listing, safe file writing.
+// What every command-line program here shares: the command line, error reporting, adapter listing.
+#include "files.hpp"
 #include "nnb/search_index.hpp"
 
+#include <CLI/CLI.hpp>
+
 #include <functional>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -13,12 +17,17 @@ namespace nnb::cli {
 /// exception exit code 1. Returns body's exit code otherwise.
 int run_reporting_errors(const std::string& program, const std::function<int()>& body);
 
+/// "PROG VERSION (git COMMIT, BUILD TYPE)": what --version prints.
+std::string version_line(const std::string& program);
+/// Adds the options every program shares (--version) and parses argv with the shared conventions:
+/// --help and --version print and give 0; any other command-line error is the one line
+/// "PROG: error: ..." and gives 2. Returns the exit code when the program should stop now.
+std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv, const std::string& program);
+/// Help text of --data-dir, the same in every program.
+extern const char* const kDataDirHelp;
+
 /// Parses NAME=VALUE words into adapter parameters; throws InputError on a word without '='.
 Params parse_params(const std::vector<std::string>& words);
-
-/// Writes text to path through a temporary file in the same directory and a rename, so a reader never
-/// sees a half-written file; throws InputError when the directory is not writable.
-void write_file_atomically(const std::string& path, const std::string& text);
 
 /// The build type this binary was compiled as ("Release", "Debug", ...), "+sanitizers" appended if so.
 std::string build_type();

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -10,6 +11,12 @@
 
 namespace nnb::bench {
 namespace {
+
+// Where /sys and /proc are read from: NNB_MACHINE_ROOT lets a test stand for a machine that exposes nothing.
+std::string machine_path(const std::string& path) {
+  const char* root = std::getenv("NNB_MACHINE_ROOT");
+  return root ? root + path : path;
+}
 
 std::string read_line(const std::string& path) {
   std::ifstream in(path);
@@ -53,6 +60,34 @@ std::string run_command(const std::string& command) {
   return out;
 }
 
+// The caches of cpu0 as the kernel lists them; virtual machines and some arm64 kernels list none.
+std::vector<CacheInfo> read_sys_caches() {
+  std::vector<CacheInfo> caches;
+  for (int i = 0;; ++i) {
+    const std::string dir = machine_path("/sys/devices/system/cpu/cpu0/cache/index") + std::to_string(i) + "/";
+    const std::string type = read_line(dir + "type");
+    if (type.empty()) break;
+    caches.push_back({type, std::atoi(read_line(dir + "level").c_str()), parse_size(read_line(dir + "size")),
+                      count_cpus(read_line(dir + "shared_cpu_list"))});
+  }
+  return caches;
+}
+
+// x86's /proc/cpuinfo names one cache ("cache size : 512 KB", level unknown); elsewhere there is none.
+std::vector<CacheInfo> read_cpuinfo_cache() {
+  std::ifstream cpuinfo(machine_path("/proc/cpuinfo"));
+  for (std::string line; std::getline(cpuinfo, line);) {
+    if (line.rfind("cache size", 0) != 0) continue;
+    std::string size = line.substr(line.find(':') + 1);
+    size.erase(std::remove(size.begin(), size.end(), ' '), size.end());  // "512KB"
+    if (size.size() > 1 && size.back() == 'B') size.pop_back();
+    const long bytes = parse_size(size);
+    if (bytes > 0) return {{"Unified", 0, bytes, 0}};
+    break;
+  }
+  return {};
+}
+
 }  // namespace
 
 MachineInfo read_machine_info() {
@@ -64,22 +99,17 @@ MachineInfo read_machine_info() {
   char host[256] = {};
   if (gethostname(host, sizeof host - 1) == 0) m.host_name = host;
   m.num_cpus = static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN));
-  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::ifstream cpuinfo(machine_path("/proc/cpuinfo"));
   for (std::string line; std::getline(cpuinfo, line);) {
     if (line.rfind("cpu MHz", 0) == 0) {
       m.mhz_per_cpu = std::atof(line.c_str() + line.find(':') + 1);
       break;
     }
   }
-  const std::string governor = read_line("/sys/devices/system/cpu/cpu0/cpufreq/scaling_governor");
+  const std::string governor = read_line(machine_path("/sys/devices/system/cpu/cpu0/cpufreq/scaling_governor"));
   m.cpu_scaling_enabled = !governor.empty() && governor != "performance";
-  for (int i = 0;; ++i) {
-    const std::string dir = "/sys/devices/system/cpu/cpu0/cache/index" + std::to_string(i) + "/";
-    const std::string type = read_line(dir + "type");
-    if (type.empty()) break;
-    m.caches.push_back({type, std::atoi(read_line(dir + "level").c_str()), parse_size(read_line(dir + "size")),
-                        count_cpus(read_line(dir + "shared_cpu_list"))});
-  }
+  m.caches = read_sys_caches();
+  if (m.caches.empty()) m.caches = read_cpuinfo_cache();
   double load[3];
   if (getloadavg(load, 3) == 3) m.load_avg.assign(load, load + 3);
   return m;

@@ -18,7 +18,7 @@ struct MachineInfo {
   int num_cpus = 0;
   double mhz_per_cpu = 0.0;
   bool cpu_scaling_enabled = false;
-  std::vector<CacheInfo> caches;  ///< of cpu0, from /sys/devices/system/cpu/cpu0/cache
+  std::vector<CacheInfo> caches;  ///< of cpu0 from /sys, else /proc/cpuinfo's one (level 0), else none
   std::vector<double> load_avg;
 };
 

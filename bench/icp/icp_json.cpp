@@ -1,8 +1,10 @@
 #include "icp_experiment.hpp"
 #include "icp_record.hpp"
+#include "json_whole.hpp"
 #include "machine_json.hpp"
 
 #include <Eigen/LU>
+
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 
@@ -131,13 +133,19 @@ Settings parse_settings(const json& j, Settings s) {
     if (key == "max_dist_m") s.max_dist.start_m = value.get<double>();
     else if (key == "max_dist_factor") s.max_dist.factor = value.get<double>();
     else if (key == "max_dist_floor_m") s.max_dist.floor_m = value.get<double>();
-    else if (key == "iterations") s.max_iterations = value.get<int>();
+    else if (key == "iterations") s.max_iterations = bench::whole_number<int>(value, "iterations");
     else if (key == "min_translation_step_m") s.min_translation_step_m = value.get<double>();
     else if (key == "min_rotation_step_rad") s.min_rotation_step_rad = value.get<double>();
-    else if (key == "query_stride") s.query_stride = value.get<std::size_t>();
+    else if (key == "query_stride") s.query_stride = bench::whole_number<std::size_t>(value, "query_stride");
     else throw InputError("unknown ICP setting '" + key + "'");
   }
   if (s.query_stride < 1) throw InputError("query_stride must be at least 1");
+  Options checked;  // refused here, before any run, not skipped run by run
+  checked.max_dist = s.max_dist;
+  checked.max_iterations = s.max_iterations;
+  checked.min_translation_step_m = s.min_translation_step_m;
+  checked.min_rotation_step_rad = s.min_rotation_step_rad;
+  validate(checked);
   return s;
 }
 
@@ -153,7 +161,7 @@ std::vector<int> parse_buckets(const json& j) {
     if (c1 != ':' || first < 1 || last < first || step < 1) throw InputError("bad bucket range '" + text + "'");
     for (int b = first; b <= last; b += step) sizes.push_back(b);
   } else {
-    sizes = j.get<std::vector<int>>();
+    for (const auto& size : j) sizes.push_back(bench::whole_number<int>(size, "a bucket size"));
   }
   return sizes;
 }
@@ -185,7 +193,7 @@ Experiment load_experiment(const std::string& path) {
     if (const auto it = j.find("icp_by_pair"); it != j.end()) {
       for (const auto& [pair, settings] : it->items()) e.icp_by_pair[pair] = parse_settings(settings, e.icp);
     }
-    e.repetitions = j.value("repetitions", 1);
+    e.repetitions = j.contains("repetitions") ? bench::whole_number<int>(j["repetitions"], "repetitions") : 1;
     if (e.repetitions < 1) throw InputError("repetitions must be at least 1");
     e.out = j.value("out", "results/" + e.name + ".json");
   } catch (const json::exception& err) {

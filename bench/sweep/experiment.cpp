@@ -1,13 +1,17 @@
 // Experiment files (JSON) and the flag syntaxes that override them. One of the two nlohmann TUs.
 #include "experiment.hpp"
 
+#include "json_whole.hpp"
 #include "nnb/cloud.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <limits>
+#include <type_traits>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -38,6 +42,19 @@ T get(const json& object, const char* key, const std::string& file) {
   }
 }
 
+template <class Int>
+Int get_whole(const json& object, const char* key, const std::string& file) {
+  return bench::whole_number<Int>(object.at(key), file + ": field '" + key + "'");
+}
+
+std::vector<int> get_whole_list(const json& object, const char* key, const std::string& file) {
+  const json& list = object.at(key);
+  if (!list.is_array()) throw InputError(file + ": field '" + std::string(key) + "' must be a list");
+  std::vector<int> values;
+  for (const auto& item : list) values.push_back(bench::whole_number<int>(item, file + ": an entry of '" + key + "'"));
+  return values;
+}
+
 bool exactly_decimal(double value, int decimals) {
   const double scaled = value * std::pow(10.0, decimals);
   return std::abs(scaled - std::round(scaled)) < 1e-9 * std::max(1.0, std::abs(scaled));
@@ -45,11 +62,16 @@ bool exactly_decimal(double value, int decimals) {
 
 }  // namespace
 
+double DistRange::count() const {
+  if (!(step_m > 0.0) || !(stop_m >= start_m)) return 0.0;
+  return std::floor((stop_m - start_m) / step_m + 1e-9) + 1.0;
+}
+
 std::vector<double> DistRange::values() const {
   std::vector<double> out;
-  if (!(step_m > 0.0)) return out;
-  const auto count = static_cast<long>(std::floor((stop_m - start_m) / step_m + 1e-9));
-  for (long i = 0; i <= count; ++i) out.push_back(start_m + static_cast<double>(i) * step_m);
+  const double n = count();
+  if (!(n >= 1.0 && n <= kMaxDistances)) return out;  // validate() refuses these with a reason
+  for (long i = 0; i < static_cast<long>(n); ++i) out.push_back(start_m + static_cast<double>(i) * step_m);
   return out;
 }
 
@@ -146,15 +168,15 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
     e.adapters = get<std::vector<std::string>>(doc, "adapters", path);
   }
   if (doc.contains("searches")) e.searches = get<std::vector<std::string>>(doc, "searches", path);
-  if (doc.contains("k")) e.ks = get<std::vector<int>>(doc, "k", path);
+  if (doc.contains("k")) e.ks = get_whole_list(doc, "k", path);
   if (doc.contains("dists")) e.dists = parse_dists(get<std::string>(doc, "dists", path));
-  if (doc.contains("repetitions")) e.repetitions = get<int>(doc, "repetitions", path);
-  if (doc.contains("build_repetitions")) e.build_repetitions = get<int>(doc, "build_repetitions", path);
+  if (doc.contains("repetitions")) e.repetitions = get_whole<int>(doc, "repetitions", path);
+  if (doc.contains("build_repetitions")) e.build_repetitions = get_whole<int>(doc, "build_repetitions", path);
   if (doc.contains("budget_seconds")) e.budget_s = get<double>(doc, "budget_seconds", path);
   if (doc.contains("max_cell_seconds")) e.cell_s = get<double>(doc, "max_cell_seconds", path);
-  if (doc.contains("neighbour_budget")) e.neighbour_budget = get<std::size_t>(doc, "neighbour_budget", path);
-  if (doc.contains("synthetic_points")) e.synthetic_points = get<std::size_t>(doc, "synthetic_points", path);
-  if (doc.contains("seed")) e.seed = get<std::uint64_t>(doc, "seed", path);
+  if (doc.contains("neighbour_budget")) e.neighbour_budget = get_whole<std::size_t>(doc, "neighbour_budget", path);
+  if (doc.contains("synthetic_points")) e.synthetic_points = get_whole<std::size_t>(doc, "synthetic_points", path);
+  if (doc.contains("seed")) e.seed = get_whole<std::uint64_t>(doc, "seed", path);
   if (doc.contains("memory_limit_gib")) e.memory_limit_gib = get<double>(doc, "memory_limit_gib", path);
   if (doc.contains("skip_larger_models")) e.skip_larger_models = get<bool>(doc, "skip_larger_models", path);
   return e;
@@ -183,7 +205,11 @@ void validate(const Experiment& e, const std::vector<std::string>& all_adapters)
   if (!std::isfinite(d.step_m) || d.step_m <= 0.0) throw InputError("distance step must be > 0 m");
   if (!std::isfinite(d.start_m) || d.start_m < 0.0) throw InputError("distances must be >= 0 m");
   if (!std::isfinite(d.stop_m) || d.stop_m < d.start_m) throw InputError("distance stop must be >= start");
-  if (d.values().size() > 100000) throw InputError("more than 100000 distances: is the step right?");
+  if (d.count() > kMaxDistances) {
+    throw InputError("distances " + std::to_string(d.start_m) + ":" + std::to_string(d.stop_m) + " by " +
+                     std::to_string(d.step_m) + " m make more than " + std::to_string(long(kMaxDistances)) +
+                     " values: is the step right?");
+  }
   if (e.repetitions < 1) throw InputError("repetitions must be at least 1");
   if (e.build_repetitions < 1) throw InputError("build repetitions must be at least 1");
   if (!(e.budget_s > 0.0)) throw InputError("the time budget must be > 0 s");

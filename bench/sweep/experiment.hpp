@@ -14,12 +14,18 @@ struct DataPair {
 };
 
 /// The swept maximal distances in metres: start + i * step for i = 0, 1, ... while <= stop.
+/// More distances than this in one sweep is a mistyped step, refused before any list is built.
+constexpr double kMaxDistances = 100000;
+
 struct DistRange {
   double start_m = 0.0;
   double stop_m = 1.0;
   double step_m = 0.02;
 
-  /// Every swept distance in metres, computed as start + i * step (no accumulated rounding).
+  /// How many distances the range holds (a double: a mistyped step may make it astronomically many).
+  double count() const;
+  /// Every swept distance in metres, computed as start + i * step (no accumulated rounding); empty when
+  /// the range is invalid or holds more than kMaxDistances.
   std::vector<double> values() const;
   /// Decimals needed to print start and step exactly (at least 2), for cell names.
   int decimals() const;

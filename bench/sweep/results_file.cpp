@@ -1,13 +1,18 @@
 // Records to and from Google Benchmark-style JSON; the atomic writer. One of the two nlohmann TUs.
 #include "results_file.hpp"
 
+#include "files.hpp"
 #include "machine_json.hpp"
 #include "nnb/cloud.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
+#include <cmath>
 #include <csignal>
+#include <limits>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -87,12 +92,27 @@ ordered_json context_of(const RunDescription& run) {
   return c;
 }
 
+// JSON has no infinity: a non-finite value is written as the string "inf", "-inf" or "nan" and read back.
+ordered_json number_or_marker(double value) {
+  if (std::isfinite(value)) return value;
+  return std::isnan(value) ? "nan" : value > 0 ? "inf" : "-inf";
+}
+
+double read_number(const json& j) {
+  if (j.is_number()) return j.get<double>();
+  const std::string text = j.get<std::string>();
+  if (text == "inf") return std::numeric_limits<double>::infinity();
+  if (text == "-inf") return -std::numeric_limits<double>::infinity();
+  if (text == "nan") return std::numeric_limits<double>::quiet_NaN();
+  throw json::type_error::create(302, "not a number or a non-finite marker: '" + text + "'", nullptr);
+}
+
 void put_stats(ordered_json& j, const char* prefix, const TimeStats& s) {
   const std::string p = prefix;
-  j[p + "median_s"] = s.median_s;
-  j[p + "mean_s"] = s.mean_s;
-  j[p + "min_s"] = s.min_s;
-  j[p + "stddev_s"] = s.stddev_s;
+  j[p + "median_s"] = number_or_marker(s.median_s);
+  j[p + "mean_s"] = number_or_marker(s.mean_s);
+  j[p + "min_s"] = number_or_marker(s.min_s);
+  j[p + "stddev_s"] = number_or_marker(s.stddev_s);
 }
 
 ordered_json to_json(const Record& r) {
@@ -104,8 +124,8 @@ ordered_json to_json(const Record& r) {
   j["repetition_index"] = 0;
   j["threads"] = 1;
   j["iterations"] = r.repetitions;
-  j["real_time"] = r.wall.median_s;
-  j["cpu_time"] = r.cpu.median_s;
+  j["real_time"] = number_or_marker(r.wall.median_s);
+  j["cpu_time"] = number_or_marker(r.cpu.median_s);
   j["time_unit"] = "s";
   j["type"] = r.type == Record::Type::build ? "build" : "sweep";
   j["model"] = r.model;
@@ -139,7 +159,7 @@ ordered_json to_json(const Record& r) {
   if (r.k) j["k"] = *r.k;
   j["found"] = r.found;
   j["neighbours"] = r.neighbours;
-  j["dist_sum"] = r.dist_sum_m;
+  j["dist_sum"] = number_or_marker(r.dist_sum_m);
   if (r.agrees) {
     j["agrees"] = *r.agrees;
     j["checked_against"] = r.checked_against;
@@ -149,8 +169,8 @@ ordered_json to_json(const Record& r) {
 }
 
 TimeStats get_stats(const json& j, const std::string& p) {
-  return {j.at(p + "median_s").get<double>(), j.at(p + "mean_s").get<double>(), j.at(p + "min_s").get<double>(),
-          j.at(p + "stddev_s").get<double>()};
+  return {read_number(j.at(p + "median_s")), read_number(j.at(p + "mean_s")), read_number(j.at(p + "min_s")),
+          read_number(j.at(p + "stddev_s"))};
 }
 
 Record from_json(const json& j) {
@@ -180,7 +200,7 @@ Record from_json(const json& j) {
   if (j.contains("k")) r.k = j["k"].get<int>();
   r.found = j.at("found").get<std::size_t>();
   r.neighbours = j.at("neighbours").get<std::size_t>();
-  r.dist_sum_m = j.at("dist_sum").get<double>();
+  r.dist_sum_m = read_number(j.at("dist_sum"));
   if (j.contains("agrees")) {
     r.agrees = j["agrees"].get<bool>();
     r.checked_against = j.at("checked_against").get<std::string>();
@@ -239,36 +259,38 @@ void ResultsFile::add(const std::vector<Record>& batch) {
     if (!names_.insert(r.name).second) continue;
     records_.push_back(r);
     serialised_.push_back(to_json(r).dump(2));
+    pending_bytes_ += serialised_.back().size();
   }
-  write();
+  if (checkpoint_due()) write();
+  if (const int signal = files::interrupted()) {
+    throw Interrupted(std::string("stopped by ") + strsignal(signal) + " with " + std::to_string(records_.size()) +
+                      " records written to " + path_);
+  }
   added_ += batch.size();
   if (abort_after_ > 0 && added_ >= abort_after_) {
+    write();
     std::fprintf(stderr, "run_sweep: NNB_SWEEP_ABORT_AFTER_CELLS reached, killing myself\n");
     std::raise(SIGKILL);
   }
 }
 
-void ResultsFile::write() const {
-  namespace fs = std::filesystem;
-  const fs::path target(path_);
-  if (target.has_parent_path()) fs::create_directories(target.parent_path());
-  // Same directory, so that rename() is atomic; a name ending in .tmp, which results/.gitignore ignores.
-  const fs::path temporary = target.string() + "." + std::to_string(getpid()) + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write " + temporary.string());
-    out << "{\n\"context\": " << json_->context.dump(2) << ",\n\"benchmarks\": [";
-    for (std::size_t i = 0; i < serialised_.size(); ++i) out << (i ? ",\n" : "\n") << serialised_[i];
-    out << "\n]\n}\n";
-    out.flush();
-    if (!out) throw std::runtime_error("failed writing " + temporary.string());
-  }
-  std::error_code error;
-  fs::rename(temporary, target, error);
-  if (error) {
-    fs::remove(temporary);
-    throw std::runtime_error("cannot rename " + temporary.string() + " to " + path_ + ": " + error.message());
-  }
+// The whole file is rewritten at a checkpoint only when what is new is at least an eighth of what was
+// written, or a minute has passed (small files: always): a long run writes a bounded multiple of its final size, not its square.
+// An interrupt always writes, so SIGINT and SIGTERM lose nothing.
+bool ResultsFile::checkpoint_due() const {
+  const auto since = std::chrono::steady_clock::now() - last_write_;
+  return files::interrupted() != 0 || written_bytes_ < (64u << 10) || pending_bytes_ * 8 >= written_bytes_ ||
+         since >= std::chrono::minutes(1);
+}
+
+void ResultsFile::write() {
+  std::string text = "{\n\"context\": " + json_->context.dump(2) + ",\n\"benchmarks\": [";
+  for (std::size_t i = 0; i < serialised_.size(); ++i) (text += i ? ",\n" : "\n") += serialised_[i];
+  text += "\n]\n}\n";
+  files::write_file_atomically(path_, text);
+  written_bytes_ = text.size();
+  pending_bytes_ = 0;
+  last_write_ = std::chrono::steady_clock::now();
 }
 
 }  // namespace nnb::sweep

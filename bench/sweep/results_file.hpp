@@ -1,11 +1,12 @@
 #pragma once
 // The results file: Google Benchmark's JSON schema (context + benchmarks[]), rewritten atomically
-// (temporary file in the same directory, then rename) at every checkpoint.
+// (temporary file in the same directory, then rename) at checkpoints of a bounded rate.
 #include "experiment.hpp"
 #include "machine.hpp"
 #include "record.hpp"
 #include "runner.hpp"
 
+#include <chrono>
 #include <cstddef>
 #include <memory>
 #include <set>
@@ -39,8 +40,8 @@ class ResultsFile final : public ResultsSink {
 
   bool has(const std::string& name) const override { return names_.count(name) > 0; }
   void add(const std::vector<Record>& batch) override;
-  /// Writes the whole file atomically; throws std::runtime_error on an I/O failure.
-  void write() const;
+  /// Writes the whole file atomically now; throws InputError on an I/O failure.
+  void write();
 
   /// Calls after each checkpoint, for the kill test: raise SIGKILL once this many cells are recorded.
   void abort_after(std::size_t cells) { abort_after_ = cells; }
@@ -52,7 +53,11 @@ class ResultsFile final : public ResultsSink {
   std::vector<Record> records_;
   std::vector<std::string> serialised_;  // each record's JSON text, made once
   std::set<std::string> names_;
+  bool checkpoint_due() const;
   std::size_t added_ = 0;
+  std::size_t pending_bytes_ = 0;  // serialised since the last write
+  std::size_t written_bytes_ = 0;  // size of the last write
+  std::chrono::steady_clock::time_point last_write_ = std::chrono::steady_clock::now();
   std::size_t abort_after_ = 0;
 };
 

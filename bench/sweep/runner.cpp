@@ -13,6 +13,7 @@
 #include <iomanip>
 #include <new>
 #include <numeric>
+#include <set>
 #include <sstream>
 
 namespace nnb::sweep {
@@ -199,10 +200,23 @@ double run_cell(const SearchIndex& index, const Cloud& queries, const Group& gro
   return *std::max_element(wall.begin(), wall.end());
 }
 
+// Distinct distances or data set paths can print alike ("a/b" and "a_b", 1e-10 and 2e-10 m at nine
+// decimals): their cells would overwrite each other, so the experiment is refused instead.
+void check_unique(const std::vector<std::string>& names) {
+  std::set<std::string> seen;
+  for (const auto& name : names) {
+    if (!seen.insert(name).second) {
+      throw InputError("two cells would share the name '" + name + "': give distances or data set names that "
+                       "print differently");
+    }
+  }
+}
+
 }  // namespace
 
-LoadedData load_data(const Experiment& e) {
+LoadedData load_data(const Experiment& e, const std::string& data_dir) {
   datasets::DataOptions options;
+  options.data_dir = data_dir;
   options.synthetic_points = e.synthetic_points;
   options.seed = e.seed;
   LoadedData data;
@@ -247,6 +261,7 @@ std::vector<std::string> planned_cells(const Experiment& e, const std::vector<Pl
       }
     }
   }
+  check_unique(names);
   return names;
 }
 

@@ -9,6 +9,7 @@
 #include "nnb/search_index.hpp"
 
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,12 @@ struct PlannedAdapter {
   std::vector<SearchKind> kinds;
 };
 
+/// Thrown by a sink once SIGINT or SIGTERM has arrived and the checkpoint holding every finished cell is
+/// written: the run stops there and --resume continues it.
+struct Interrupted : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 /// Where finished cells go; add() is a checkpoint (the batch lands in the file together).
 class ResultsSink {
  public:
@@ -38,8 +45,9 @@ class ResultsSink {
   virtual void add(const std::vector<Record>& batch) = 0;
 };
 
-/// Resolves every model and query of the experiment; throws InputError for a bad name or file.
-LoadedData load_data(const Experiment& experiment);
+/// Resolves every model and query of the experiment (real scans from data_dir, empty = the default lookup);
+/// throws InputError for a bad name or file.
+LoadedData load_data(const Experiment& experiment, const std::string& data_dir);
 /// The adapters of the experiment with their info and swept kinds.
 std::vector<PlannedAdapter> plan_adapters(const Experiment& experiment);
 /// Every cell name the experiment will record (construction records included), in run order.

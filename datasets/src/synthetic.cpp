@@ -67,6 +67,10 @@ std::array<double, 3> on_cube(std::mt19937_64& rng) {
 }  // namespace
 
 Cloud make_shape(Shape shape, std::size_t n_points, std::uint64_t seed) {
+  if (n_points > kMaxSyntheticPoints) {
+    throw InputError("a synthetic set holds at most " + std::to_string(kMaxSyntheticPoints) + " points, not " +
+                     std::to_string(n_points) + (n_points > (std::size_t(1) << 62) ? " (a negative count?)" : ""));
+  }
   std::mt19937_64 rng(seed);
   Cloud cloud(3, static_cast<Eigen::Index>(n_points));
   for (Eigen::Index i = 0; i < cloud.cols(); ++i) {

@@ -88,11 +88,17 @@ void SearchIndex::check_supported(SearchKind kind) const {
   }
 }
 
+// No query has more than model_size_ neighbours: passing a larger k on would only make libraries reserve
+// queries x k entries (gigabytes for a mistyped k) for the same answer.
+int SearchIndex::useful_k(int k) const {
+  return static_cast<int>(std::min(static_cast<std::size_t>(k), model_size_));
+}
+
 void SearchIndex::knn(const Cloud& queries, int k, Neighbours& out) const {
   check_supported(SearchKind::knn);
   check_k(info_.name, k);
   check_queries(queries);
-  do_knn(queries, k, out);
+  do_knn(queries, useful_k(k), out);
 }
 
 void SearchIndex::radius(const Cloud& queries, double radius_m, Neighbours& out) const {
@@ -107,6 +113,7 @@ void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbo
   check_k(info_.name, k);
   check_distance(info_.name, "max_dist", max_dist_m);
   check_queries(queries);
+  k = useful_k(k);
   switch (info_.ranged) {
     case Strategy::via_knn:
       do_knn(queries, k, out);

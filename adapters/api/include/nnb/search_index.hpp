@@ -88,6 +88,7 @@ class SearchIndex {
 
  private:
   void check_queries(const Cloud& queries) const;
+  int useful_k(int k) const;
   void check_supported(SearchKind kind) const;
   AdapterInfo info_;
   std::size_t model_size_ = 0;

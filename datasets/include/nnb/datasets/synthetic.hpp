@@ -20,7 +20,11 @@ const std::vector<std::string>& shape_names();
 std::optional<Shape> parse_shape(const std::string& name);
 const char* to_string(Shape shape);
 
+/// The largest synthetic set (2.4 GB of coordinates): a larger request is a mistyped or negative count.
+inline constexpr std::size_t kMaxSyntheticPoints = 100'000'000;
+
 /// n points on (hollow) or in (filled) the shape, in metres; the same (shape, n, seed) gives the same bytes.
+/// Throws InputError for n > kMaxSyntheticPoints, before allocating anything.
 Cloud make_shape(Shape shape, std::size_t n_points, std::uint64_t seed);
 
 }  // namespace nnb::datasets
