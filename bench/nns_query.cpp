@@ -23,6 +23,7 @@ struct Options {
   int k = 1;
   double max_dist_m = 0.1;
   int repeat = 1;
+  std::size_t max_neighbours = 10'000'000;
   std::vector<std::string> params;
   nnb::datasets::DataOptions data;
   bool list = false, table1 = false;
@@ -51,6 +52,44 @@ std::string to_csv(const nnb::Neighbours& found) {
   return text;
 }
 
+// Outputs are checked before any work: a bad path fails at once, and an input file is never replaced.
+void check_outputs(const Options& opt, const std::vector<nnb::datasets::NamedCloud>& clouds) {
+  std::vector<std::string> inputs;
+  for (const auto& cloud : clouds) {
+    if (cloud.kind == "file") inputs.push_back(cloud.source);
+  }
+  if (!opt.out.empty() && opt.out != "-") nnb::files::check_output_path(opt.out, inputs);
+  if (!opt.stats.empty()) nnb::files::check_output_path(opt.stats, inputs);
+}
+
+// Every neighbour becomes a CSV row, so the answer is bounded before it is computed: k-NN and ranged by
+// queries x k, radius (unbounded by k) by counting in slices of queries that cannot pass the budget each.
+void check_neighbour_budget(const Options& opt, nnb::SearchKind kind, const nnb::SearchIndex& index,
+                            const nnb::Cloud& queries) {
+  const double n_queries = static_cast<double>(queries.cols());
+  const double n_model = static_cast<double>(index.model_size());
+  const auto refuse = [&](const std::string& what) {
+    throw nnb::InputError(what + " exceeds --max-neighbours " + std::to_string(opt.max_neighbours) +
+                          ": lower --k or --max-dist, or raise --max-neighbours");
+  };
+  if (kind != nnb::SearchKind::radius) {
+    if (n_queries * std::min<double>(opt.k, n_model) > static_cast<double>(opt.max_neighbours)) {
+      refuse(std::to_string(queries.cols()) + " queries x k " + std::to_string(opt.k));
+    }
+    return;
+  }
+  if (n_queries * n_model <= static_cast<double>(opt.max_neighbours)) return;
+  const Eigen::Index slice = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(opt.max_neighbours / index.model_size()));
+  std::size_t total = 0;
+  nnb::Neighbours found;
+  for (Eigen::Index first = 0; first < queries.cols(); first += slice) {
+    const Eigen::Index n = std::min(slice, queries.cols() - first);
+    index.radius(queries.middleCols(first, n), opt.max_dist_m, found);
+    total += found.total();
+    if (total > opt.max_neighbours) refuse("the radius search's answer (over " + std::to_string(total) + " neighbours)");
+  }
+}
+
 int run(const Options& opt) {
   if (opt.list) {
     nnb::cli::print_adapter_list(std::cout);
@@ -72,9 +111,12 @@ int run(const Options& opt) {
             << " invalid dropped); query " << query.name << ": " << query.points.cols() << " points ("
             << query.n_dropped << " invalid dropped)\n";
 
+  check_outputs(opt, {model, query});
+
   auto start = std::chrono::steady_clock::now();
   index->build(model.points);
   const double build_seconds = seconds_since(start);
+  check_neighbour_budget(opt, kind, *index, query.points);
 
   nnb::Neighbours found;
   std::vector<double> query_seconds;
@@ -145,6 +187,9 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", opt.repeat, "Answer the query set N times; query_seconds is the median")
       ->capture_default_str();
   app.add_option("--stats", opt.stats, "Write JSON statistics to this file");
+  app.add_option("--max-neighbours", opt.max_neighbours,
+                 "Refuse a search whose answer would hold more neighbours (CSV rows) than this")
+      ->capture_default_str();
   app.add_option("--data-dir", opt.data.data_dir, nnb::cli::kDataDirHelp);
   app.add_option("--points", opt.data.synthetic_points, "Points per synthetic set")->capture_default_str();
   app.add_option("--seed", opt.data.seed, "Seed of the synthetic sets")->capture_default_str();

@@ -175,6 +175,9 @@ std::vector<std::string> adapters_of(const icp::Experiment& e) {
 int run_experiment(const std::string& name, std::string out_path, const ds::DataOptions& data) {
   const icp::Experiment e = icp::load_experiment(experiment_path(name));
   if (out_path.empty()) out_path = e.out;
+  nnb::files::check_output_path(out_path, {experiment_path(name)});
+  const nnb::files::OutputLock lock(out_path);
+  nnb::files::remove_stale_temporaries(out_path);
   const auto adapters = adapters_of(e);
   std::cout << "experiment " << e.name << ": " << e.pairs.size() << " pair(s), adapters:";
   for (const auto& a : adapters) std::cout << " " << a;
@@ -255,6 +258,8 @@ int main(int argc, char** argv) {
       throw InputError("give --adapter, --model, --query and --out (or --experiment NAME)");
     }
     if (s.query_stride < 1) throw InputError("--query-stride must be at least 1");
+    nnb::files::check_output_path(out_path, {model_spec, query_spec, initial_file});
+    const nnb::files::OutputLock lock(out_path);
     Input in = load_input(model_spec, query_spec, data, s.query_stride);
     if (!initial_file.empty()) {
       in.initial = ds::load_pose(initial_file, ds::PoseFormat::matrix4_row_major);

@@ -98,6 +98,46 @@ class BadInput(unittest.TestCase):
         self.assertFalse(os.path.exists(self.out))
         self.assertEqual([f for f in os.listdir(self.dir) if f != "bad.xyz" and f != "bad.bin"], [])
 
+    def test_huge_k_is_answered_within_the_model_size(self):
+        out = os.path.join(self.dir, "k.csv")
+        result = run("--adapter", "brute_force", "--model", "hollow_sphere", "--query", "hollow_cube", "--points", "50",
+                     "--search", "knn", "--k", "2147483647", "--out", out)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with open(out) as f:
+            self.assertEqual(len(f.readlines()), 1 + 50 * 50)
+
+    def test_answers_beyond_the_neighbour_budget_are_refused_before_any_output(self):
+        out = os.path.join(self.dir, "n.csv")
+        for search in (["--search", "radius", "--max-dist", "10"], ["--search", "knn", "--k", "1000"]):
+            result = run("--adapter", "brute_force", "--model", "filled_cube", "--query", "filled_cube",
+                         "--points", "3000", "--max-neighbours", "100000", *search, "--out", out)
+            self.assertEqual(result.returncode, 2, result.stderr)
+            self.assertIn("--max-neighbours", result.stderr)
+            self.assertFalse(os.path.exists(out))
+
+    def test_output_is_never_an_input(self):
+        cloud = os.path.join(self.dir, "cloud.xyz")
+        with open(cloud, "w") as f:
+            f.writelines(f"{i * 0.01} {i * 0.02} 0\n" for i in range(20))
+        with open(cloud) as f:
+            before = f.read()
+        for option in ("--out", "--stats"):
+            result = run("--model", cloud, "--query", "hollow_cube", "--points", "20", option, cloud)
+            self.assertEqual(result.returncode, 2, result.stderr)
+            with open(cloud) as f:
+                self.assertEqual(f.read(), before)
+
+    def test_command_line_errors_are_one_line_and_exit_2(self):
+        for bad in (["--k", "abc"], ["--no-such-option"]):
+            result = run(*bad)
+            self.assertEqual(result.returncode, 2)
+            self.assertEqual(len(result.stderr.strip().splitlines()), 1, result.stderr)
+
+    def test_version(self):
+        result = run("--version")
+        self.assertEqual(result.returncode, 0)
+        self.assertRegex(result.stdout, r"^nns_query \d+\.\d+ \(git ")
+
     def test_missing_file(self):
         self.expect_refused(["--model", "/nonexistent/cloud.pcd", "--query", "hollow_cube"], ["cloud.pcd"])
 

@@ -64,6 +64,32 @@ for bad in (["--adapter", "no_such_adapter"], ["--adapter", "ours_kdtree", "--ma
         fail(f"{bad}: exited {proc.returncode}, expected 2")
     if "error" not in proc.stderr or bad_out.exists():
         fail(f"{bad}: no error line, or a file was written: {proc.stderr!r}")
+# Command-line errors are CLI11's but exit 2 with one line, like every other error.
+for bad in (["--iterations", "abc"], ["--no-such-option"], ["--max-dist"]):
+    proc = run(bad)
+    lines = [l for l in proc.stderr.splitlines() if l.strip() and "WARNING" not in l]
+    if proc.returncode != 2 or len(lines) != 1 or not lines[0].startswith("run_icp: error: "):
+        fail(f"{bad}: exit {proc.returncode}, stderr {proc.stderr!r}")
+
+# Experiment files with values that would run nothing are refused before any run, not skipped run by run.
+for label, icp in (("zero_dist", {"max_dist_m": 0}), ("negative_iterations", {"iterations": -1}),
+                   ("negative_stride", {"query_stride": -1}), ("fractional_iterations", {"iterations": 2.5})):
+    experiment = WORK / f"{label}.json"
+    experiment.write_text(json.dumps({"name": label, "pairs": ["office-sick-3dtk"], "adapters": ["brute_force"],
+                                      "icp": icp}))
+    bad_out = WORK / f"{label}_out.json"
+    proc = run(["--experiment", str(experiment), "--out", str(bad_out)])
+    if proc.returncode != 2 or "error" not in proc.stderr or bad_out.exists():
+        fail(f"experiment {icp}: exit {proc.returncode}, stderr {proc.stderr!r}")
+
+# The output is never one of the inputs.
+cloud = WORK / "cloud.xyz"
+cloud.write_text("".join(f"{i * 0.01} {i * 0.013} {(i % 7) * 0.02}\n" for i in range(100)))
+before = cloud.read_bytes()
+proc = run(["--adapter", "brute_force", "--model", str(cloud), "--query", str(cloud), "--out", str(cloud)])
+if proc.returncode != 2 or cloud.read_bytes() != before:
+    fail(f"--out = --model: exit {proc.returncode}, file changed: {cloud.read_bytes() != before}")
+
 # A machine that exposes no /sys or /proc facts (as some virtual machines): the run still succeeds and the
 # context says what it could not read, with the fields present and of their types.
 bare = WORK / "bare_machine"

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Tests of run_sweep, run on tiny synthetic data: test_run_sweep.py RUN_SWEEP CASE WORKDIR.
 
-Cases: fields, resume, budget, bad_input, quick_tiny, agreement, scale_memory, scale_budget. Each exits non-zero
+Cases: fields, resume, budget, bad_input, hostile_values, files, quick_tiny, agreement, scale_memory,
+scale_budget. Each exits non-zero
 with a message on failure.
 """
 import json
@@ -141,7 +142,7 @@ def case_resume():
     for rec in partial["benchmarks"]:
         check(kept[rec["name"]] == rec, f"{rec['name']} was redone or changed on resume")
     check(len(resumed["context"]["resumed"]) == 1, "resumption not noted in the context")
-    check(not list(work.glob("*.tmp")), "temporary files left behind")
+    check(not list(work.glob("*.tmp")) and not list(work.glob(".*.tmp.*")), "temporary files left behind")
     # results agree between the two runs: same data, same exact answers
     whole_by_name = {r["name"]: r for r in load(whole)["benchmarks"]}
     for name, rec in kept.items():
@@ -367,7 +368,90 @@ def case_scale_budget():
         check(cell.get("agrees") is True and cell["found"] > 0, f"{cell['name']}: {cell}")
 
 
-CASES = {"fields": case_fields, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
+def case_hostile_values():
+    """Values that used to run nothing, wrap or allocate gigabytes: each is one line and exit 2."""
+    work = fresh_workdir()
+    experiments = {"fractional_repetitions": {"repetitions": 1.5}, "negative_points": {"synthetic_points": -1},
+                   "huge_k": {"k": [2147483648]}, "zero_step": {"dists": "0:1:0"}}
+    cases = [["--points", "-1"], ["--dists", "0:1:1e-300"], ["--dists", "0:100:0.000001"],
+             ["--dists", "0:0.000000001:0.0000000001"]]
+    for label, fields in experiments.items():
+        path = work / f"{label}.json"
+        path.write_text(json.dumps(dict({"name": label, "pairs": [{"model": "hollow_sphere", "query": "hollow_cube"}],
+                                         "adapters": ["brute_force"]}, **fields)))
+        cases.append(["--experiment", str(path)])
+    for i, extra in enumerate(cases):
+        out = work / f"out{i}.json"
+        args = (TINY if "--experiment" not in extra else ["--points", "300"]) + extra
+        proc = run(args + ["--adapters", "brute_force", "--out", str(out)], expect=2)
+        lines = [l for l in proc.stderr.splitlines() if l.strip() and "WARNING" not in l]
+        check(len(lines) == 1 and lines[0].startswith("run_sweep: error: "), f"{extra}: not one error line: {lines}")
+        check(not out.exists(), f"{extra}: wrote a results file")
+
+
+def case_files():
+    """The results file: never over an input, checked before work, one writer, clean interrupts, markers."""
+    work = fresh_workdir()
+    args = TINY + ["--adapters", "brute_force"]
+    # an input file as --out, a directory, an unwritable place: refused at once, the input untouched
+    cloud = work / "cloud.xyz"
+    cloud.write_text("".join(f"{i * 0.01} {i * 0.02} {i * 0.03}\n" for i in range(50)))
+    before = cloud.read_bytes()
+    run(["--datasets", str(cloud), "--dists", "0:0.1:0.05", "--adapters", "brute_force", "--out", str(cloud)],
+        expect=2)
+    check(cloud.read_bytes() == before, "an input file was overwritten")
+    for bad_out in (str(work), "/proc/nnb_results.json"):
+        proc = run(args + ["--out", bad_out], expect=2)
+        check(proc.stderr.count("\n") == 1, f"{bad_out}: not one line: {proc.stderr!r}")
+    # a second writer of the same file is refused while the first holds it
+    import fcntl
+    out = work / "locked.json"
+    with open(str(out) + ".lock", "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        proc = run(args + ["--out", str(out)], expect=2)
+        check("another process" in proc.stderr, f"lock: {proc.stderr!r}")
+    Path(str(out) + ".lock").unlink()
+    check(not out.exists(), "the refused writer wrote the file")
+    # stale temporaries of a killed writer are removed; the lock file goes when the run ends
+    out = work / "sweep.json"
+    stale = work / ".sweep.json.tmp.999999999"
+    stale.write_text("half")
+    run(args + ["--out", str(out)])
+    check(not stale.exists(), "a stale temporary was left")
+    check(not Path(str(out) + ".lock").exists(), "the lock file was left")
+    # a non-finite number is written as a marker that --resume reads back
+    doc = load(out)
+    sweep = [r for r in doc["benchmarks"] if r["type"] == "sweep"]
+    doc["benchmarks"] = [r for r in doc["benchmarks"] if r is not sweep[-1]]
+    doc["benchmarks"][-1]["dist_sum"] = "inf"
+    out.write_text(json.dumps(doc))
+    run(args + ["--out", str(out), "--resume"])
+    check(load(out)["benchmarks"][len(doc["benchmarks"]) - 1]["dist_sum"] == "inf", "marker not kept on resume")
+    # SIGTERM: the checkpoint is finished, one line names the resume command, --resume completes the cells
+    import signal
+    import time
+    slow = ["--points", "3000", "--dists", "0:0.5:0.02", "--repetitions", "3", "--adapters", "brute_force",
+            "--datasets", "filled_cube"]
+    whole, stopped = work / "whole.json", work / "stopped.json"
+    run(slow + ["--out", str(whole)])
+    proc = subprocess.Popen([RUN_SWEEP] + slow + ["--out", str(stopped)], stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while not stopped.exists() and time.time() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    check(proc.returncode == 128 + signal.SIGTERM, f"SIGTERM: exit {proc.returncode}: {err[-2000:]}")
+    check("--resume" in err.splitlines()[-1], f"no resume command: {err[-500:]}")
+    n_stopped = len(load(stopped)["benchmarks"])
+    n_whole = len(load(whole)["benchmarks"])
+    check(0 < n_stopped < n_whole, f"stopped run recorded {n_stopped} of {n_whole}")
+    check(not list(work.glob(".*.tmp.*")) and not list(work.glob("*.lock")), "files left after SIGTERM")
+    run(slow + ["--out", str(stopped), "--resume"])
+    check(sorted(r["name"] for r in load(stopped)["benchmarks"]) ==
+          sorted(r["name"] for r in load(whole)["benchmarks"]), "resume after SIGTERM gave other cells")
+
+
+CASES = {"hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
          "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
          "scale_budget": case_scale_budget}
 
