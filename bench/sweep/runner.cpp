@@ -248,10 +248,12 @@ std::vector<PlannedAdapter> plan_adapters(const Experiment& e) {
   return planned;
 }
 
-std::vector<std::string> planned_cells(const Experiment& e, const std::vector<PlannedAdapter>& adapters) {
+std::vector<std::string> planned_cells(const Experiment& e, const std::vector<PlannedAdapter>& adapters,
+                                       const UnitFilter& in_shard) {
   std::vector<std::string> names;
   for (const auto& model : distinct_models(e)) {
     for (const auto& adapter : adapters) {
+      if (in_shard && !in_shard(model, adapter.name)) continue;
       names.push_back(build_name(model, adapter.name));
       for (const auto& pair : e.pairs) {
         if (pair.model != model) continue;
@@ -266,7 +268,8 @@ std::vector<std::string> planned_cells(const Experiment& e, const std::vector<Pl
 }
 
 std::size_t run_experiment(const Experiment& e, const LoadedData& data, const std::vector<PlannedAdapter>& adapters,
-                           const std::vector<Record>& previous, ResultsSink& sink, Progress& progress) {
+                           const std::vector<Record>& previous, ResultsSink& sink, Progress& progress,
+                           const UnitFilter& in_shard) {
   Agreement agreement;
   SizeGate gate(e.memory_limit_gib * 1024.0 * 1024.0 * 1024.0, e.skip_larger_models, e.budget_s);
   for (const auto& r : previous) {
@@ -278,6 +281,7 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
   for (const auto& model_spec : distinct_models(e)) {
     const datasets::NamedCloud& model = data.models.at(model_spec);
     for (const auto& adapter : adapters) {
+      if (in_shard && !in_shard(model_spec, adapter.name)) continue;
       // The cells of this (model, adapter); build only if one of them is still to do.
       std::vector<std::pair<const DataPair*, std::vector<Group>>> work;
       std::size_t to_do = 0, total = 1;

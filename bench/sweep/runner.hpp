@@ -8,6 +8,7 @@
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/search_index.hpp"
 
+#include <functional>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -45,18 +46,22 @@ class ResultsSink {
   virtual void add(const std::vector<Record>& batch) = 0;
 };
 
+/// Which (model, adapter) units a run takes on (a shard, see shard.hpp); empty: all of them.
+using UnitFilter = std::function<bool(const std::string& model, const std::string& adapter)>;
+
 /// Resolves every model and query of the experiment (real scans from data_dir, empty = the default lookup);
 /// throws InputError for a bad name or file.
 LoadedData load_data(const Experiment& experiment, const std::string& data_dir);
 /// The adapters of the experiment with their info and swept kinds.
 std::vector<PlannedAdapter> plan_adapters(const Experiment& experiment);
 /// Every cell name the experiment will record (construction records included), in run order.
-std::vector<std::string> planned_cells(const Experiment& experiment, const std::vector<PlannedAdapter>& adapters);
+std::vector<std::string> planned_cells(const Experiment& experiment, const std::vector<PlannedAdapter>& adapters,
+                                       const UnitFilter& in_shard = {});
 
 /// Runs every cell the sink does not have yet; previous: records already in the sink (reference values
 /// for the cross-check). Returns the number of disagreements found in this run.
 std::size_t run_experiment(const Experiment& experiment, const LoadedData& data,
                            const std::vector<PlannedAdapter>& adapters, const std::vector<Record>& previous,
-                           ResultsSink& sink, Progress& progress);
+                           ResultsSink& sink, Progress& progress, const UnitFilter& in_shard = {});
 
 }  // namespace nnb::sweep
