@@ -5,6 +5,7 @@
 #include "sweep/progress.hpp"
 #include "sweep/results_file.hpp"
 #include "sweep/runner.hpp"
+#include "sweep/shard.hpp"
 
 #include "cli_common.hpp"
 #include "files.hpp"
@@ -32,7 +33,11 @@ struct Flags {
   std::optional<double> budget_s;
   std::optional<std::size_t> points;
   std::optional<double> memory_limit_gib;
+  std::optional<double> cell_timeout_s;
   bool resume = false;
+  std::string shard;
+  bool plan = false, plan_json = false;
+  bool retry_failed = false;
 };
 
 Experiment configure(const Flags& flags, const std::vector<std::string>& all_adapters, const std::string& source_dir) {
@@ -47,6 +52,7 @@ Experiment configure(const Flags& flags, const std::vector<std::string>& all_ada
   if (flags.budget_s) e.budget_s = *flags.budget_s;
   if (flags.points) e.synthetic_points = *flags.points;
   if (flags.memory_limit_gib) e.memory_limit_gib = *flags.memory_limit_gib;
+  if (flags.cell_timeout_s) e.cell_timeout_s = *flags.cell_timeout_s;
   validate(e, all_adapters);
   return e;
 }
@@ -94,6 +100,14 @@ int main(int argc, char** argv) {
   app.add_option("--out", flags.out, "results file (default: results/sweep_<experiment>.json, from the current folder)");
   app.add_option("--data-dir", flags.data_dir, nnb::cli::kDataDirHelp);
   app.add_flag("--resume", flags.resume, "finish the cells missing from --out (same configuration only)");
+  app.add_option("--shard", flags.shard, "I/N: run only shard I (from 0) of N, balanced by expected cost");
+  app.add_flag("--plan", flags.plan, "print the cells, units and shards with their expected cost; run nothing");
+  app.add_flag("--json", flags.plan_json, "with --plan: print the plan as JSON");
+  app.add_flag("--retry-failed", flags.retry_failed,
+               "with --resume: run again the cells whose library crashed or timed out");
+  app.add_option("--cell-timeout", flags.cell_timeout_s,
+                 "seconds without a finished cell after which a library is killed and its cells recorded failed "
+                 "(default 1800)");
   if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_sweep")) return *code;
 
   const BuildInfo build = read_build_info();
@@ -106,16 +120,25 @@ int main(int argc, char** argv) {
   try {
     const auto all_adapters = nnb::adapter_names();
     const Experiment experiment = configure(flags, all_adapters, build.source_dir);
-    const std::string out = flags.out.empty() ? "results/sweep_" + experiment.name + ".json" : flags.out;
+    const ShardSpec shard = flags.shard.empty() ? ShardSpec{} : parse_shard(flags.shard);
+    const std::string out = flags.out.empty() ? shard_path("results/sweep_" + experiment.name + ".json", shard) : flags.out;
     const LoadedData data = load_data(experiment, flags.data_dir);
+    if (flags.plan) {
+      print_plan(std::cout, plan_shards(experiment, plan_adapters(experiment), data, shard.count), experiment, shard,
+                 flags.plan_json);
+      return 0;
+    }
     nnb::files::check_output_path(out, input_files(data, experiment));
     const nnb::files::OutputLock lock(out);
     nnb::files::remove_stale_temporaries(out);
     nnb::files::catch_interrupts();
     const auto adapters = plan_adapters(experiment);
-    ResultsFile results(out, {&experiment, &adapters, &data, read_machine_info(), build});
+    const ShardPlan shards = plan_shards(experiment, adapters, data, shard.count);
+    const UnitFilter in_shard = shard.given ? shards.filter(shard.index) : UnitFilter{};
+    ResultsFile results(out, {&experiment, &adapters, &data, read_machine_info(), build, shard_config_json(shard),
+                              shard_context_json(shards, shard)});
     if (flags.resume) {
-      if (!results.resume()) std::cerr << "run_sweep: --resume: " << out << " does not exist yet, starting afresh\n";
+      if (!results.resume(flags.retry_failed)) std::cerr << "run_sweep: --resume: " << out << " does not exist yet, starting afresh\n";
     } else if (std::filesystem::exists(out)) {
       std::cerr << "run_sweep: note: replacing " << out << " at the first checkpoint (--resume continues it)\n";
     }
@@ -123,10 +146,11 @@ int main(int argc, char** argv) {
       results.abort_after(static_cast<std::size_t>(std::atol(abort_after)));
     }
 
-    const auto planned = planned_cells(experiment, adapters);
+    const auto planned = planned_cells(experiment, adapters, in_shard);
     std::size_t already = 0;
     for (const auto& name : planned) already += results.has(name);
-    std::cerr << "run_sweep: experiment '" << experiment.name << "': " << planned.size() << " cells ("
+    std::cerr << "run_sweep: experiment '" << experiment.name << "'"
+              << (shard.given ? ", shard " + flags.shard : std::string()) << ": " << planned.size() << " cells ("
               << already << " already in " << out << "), " << adapters.size() << " adapters, "
               << experiment.pairs.size() << " model/query pairs, " << experiment.dists.values().size()
               << " distances, " << experiment.repetitions << " repetitions, budget " << experiment.budget_s << " s"
@@ -135,7 +159,7 @@ int main(int argc, char** argv) {
 
     Progress progress(planned.size(), already, isatty(STDERR_FILENO) != 0);
     const std::size_t disagreements =
-        run_experiment(experiment, data, adapters, results.records(), results, progress);
+        run_experiment(experiment, data, adapters, results.records(), results, progress, in_shard);
     progress.finish();
     results.write();  // also when every cell was already there
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Tests of run_sweep, run on tiny synthetic data: test_run_sweep.py RUN_SWEEP CASE WORKDIR.
 
-Cases: fields, resume, budget, bad_input, hostile_values, files, quick_tiny, agreement, scale_memory,
+Cases: fields, resume, budget, bad_input, hostile_values, files, isolation, quick_tiny, agreement, scale_memory,
 scale_budget. Each exits non-zero
 with a message on failure.
 """
@@ -451,7 +451,33 @@ def case_files():
           sorted(r["name"] for r in load(whole)["benchmarks"]), "resume after SIGTERM gave other cells")
 
 
-CASES = {"hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
+def case_isolation():
+    """A library that crashes or hangs costs its own cells, recorded failed with the reason; the rest run."""
+    work = fresh_workdir()
+    args = TINY + ["--adapters", "brute_force,nanoflann_kdtree,ours_kdtree", "--datasets", "hollow_sphere:hollow_cube"]
+    for fault, extra, reason in (("NNB_SWEEP_CRASH_ADAPTER", [], "crashed: killed by signal 11"),
+                                 ("NNB_SWEEP_HANG_ADAPTER", ["--cell-timeout", "2"], "timed out: ")):
+        out = work / f"{fault}.json"
+        run(args + extra + ["--out", str(out)], env={fault: "nanoflann_kdtree"})
+        recs = load(out)["benchmarks"]
+        faulty = [r for r in recs if r["adapter"] == "nanoflann_kdtree"]
+        healthy = [r for r in recs if r["adapter"] != "nanoflann_kdtree" and r["type"] == "sweep"]
+        check(faulty and all(r["type"] == "build" or r.get("skipped", "").startswith(reason) for r in faulty),
+              f"{fault}: faulty cells not recorded failed: {[r.get('skipped') for r in faulty]}")
+        check(healthy and all("skipped" not in r and r["agrees"] for r in healthy), f"{fault}: others did not run")
+        # --resume does not run the failed cells again; --retry-failed does
+        before = out.read_bytes()
+        run(args + extra + ["--out", str(out), "--resume"])
+        check([r.get("skipped") for r in load(out)["benchmarks"]] == [r.get("skipped") for r in recs],
+              f"{fault}: --resume retried failed cells")
+        run(args + extra + ["--out", str(out), "--resume", "--retry-failed"])
+        retried = [r for r in load(out)["benchmarks"] if r["adapter"] == "nanoflann_kdtree"]
+        check(len(retried) == len(faulty) and all("skipped" not in r for r in retried),
+              f"{fault}: --retry-failed left {[r.get('skipped') for r in retried]}")
+        check(out.read_bytes() != before, "nothing changed on retry")
+
+
+CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
          "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
          "scale_budget": case_scale_budget}
 

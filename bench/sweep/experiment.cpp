@@ -139,7 +139,7 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
   static const std::set<std::string> known{
       "name", "description", "pairs", "grid", "real_pairs", "adapters", "searches", "k", "dists", "repetitions",
       "build_repetitions", "budget_seconds", "max_cell_seconds", "neighbour_budget", "synthetic_points", "seed",
-      "memory_limit_gib", "skip_larger_models"};
+      "memory_limit_gib", "skip_larger_models", "cell_timeout_seconds"};
   for (const auto& item : doc.items()) {
     if (!known.count(item.key())) throw InputError(path + ": unknown field '" + item.key() + "'");
   }
@@ -178,6 +178,7 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
   if (doc.contains("synthetic_points")) e.synthetic_points = get_whole<std::size_t>(doc, "synthetic_points", path);
   if (doc.contains("seed")) e.seed = get_whole<std::uint64_t>(doc, "seed", path);
   if (doc.contains("memory_limit_gib")) e.memory_limit_gib = get<double>(doc, "memory_limit_gib", path);
+  if (doc.contains("cell_timeout_seconds")) e.cell_timeout_s = get<double>(doc, "cell_timeout_seconds", path);
   if (doc.contains("skip_larger_models")) e.skip_larger_models = get<bool>(doc, "skip_larger_models", path);
   return e;
 }
@@ -214,6 +215,7 @@ void validate(const Experiment& e, const std::vector<std::string>& all_adapters)
   if (e.build_repetitions < 1) throw InputError("build repetitions must be at least 1");
   if (!(e.budget_s > 0.0)) throw InputError("the time budget must be > 0 s");
   if (!(e.cell_s >= 0.0)) throw InputError("max_cell_seconds must be >= 0 s");
+  if (!(e.cell_timeout_s > 0.0)) throw InputError("the cell time-out must be > 0 s");
   if (e.synthetic_points < 1) throw InputError("synthetic data sets need at least 1 point");
   if (!std::isfinite(e.memory_limit_gib) || !(e.memory_limit_gib > 0.0)) {
     throw InputError("the memory limit must be > 0 GiB");

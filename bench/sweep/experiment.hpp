@@ -49,6 +49,7 @@ struct Experiment {
   std::uint64_t seed = 1;
   double memory_limit_gib = 8.0;    ///< per build; see size_gate.hpp
   bool skip_larger_models = false;  ///< the time budget also skips the adapter on models at least as large
+  double cell_timeout_s = 1800.0;   ///< a library that finishes no cell (or build) for this long is killed
 };
 
 /// The experiment file for a name (experiments_dir/NAME.json) or a path; throws InputError if unreadable.

@@ -31,7 +31,7 @@ void Progress::end(std::size_t n, const std::string& outcome) {
   if (interactive_) {
     draw();
   } else {
-    std::cerr << "[" << done_ << "/" << total_ << "] " << label_ << " " << outcome << "\n";
+    std::cerr << "[" << done_ << "/" << total_ << " ETA " << eta() << "] " << label_ << " " << outcome << "\n";
   }
 }
 
@@ -47,18 +47,21 @@ void Progress::finish() {
 
 // The ETA assumes the remaining cells cost what the finished ones did on average: rough, since
 // cells grow with the distance and budget-skipped ones cost nothing.
-void Progress::draw() {
+std::string Progress::eta() const {
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   const std::size_t ran = done_ - done_at_start_;
   const std::size_t left = total_ > done_ ? total_ - done_ : 0;
-  const std::string eta = ran > 0 ? format_duration(elapsed / static_cast<double>(ran) * static_cast<double>(left)) : "?";
+  return ran > 0 ? format_duration(elapsed / static_cast<double>(ran) * static_cast<double>(left)) : "?";
+}
+
+void Progress::draw() {
   constexpr int width = 30;
   const int filled = total_ > 0 ? static_cast<int>(width * done_ / total_) : width;
   std::string bar(static_cast<std::size_t>(filled), '#');
   bar.resize(width, '.');
   std::string label = label_;
   if (label.size() > 70) label = "..." + label.substr(label.size() - 67);
-  std::cerr << "\r\033[K[" << bar << "] " << done_ << "/" << total_ << " ETA " << eta << " " << label << std::flush;
+  std::cerr << "\r\033[K[" << bar << "] " << done_ << "/" << total_ << " ETA " << eta() << " " << label << std::flush;
 }
 
 }  // namespace nnb::sweep

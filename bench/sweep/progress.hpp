@@ -14,6 +14,8 @@ class Progress {
   void begin(const std::string& label);
   /// n cells finished (run or skipped); secs_run: time the cell took, for the plain line.
   void end(std::size_t n, const std::string& outcome);
+  /// n cells finished elsewhere (a child process, which printed them): counted, not printed.
+  void advance(std::size_t n) { done_ += n; }
   /// A line that must be seen (disagreement, error): clears the bar first.
   void loud(const std::string& line);
   /// Ends the bar with a newline.
@@ -21,6 +23,7 @@ class Progress {
 
  private:
   void draw();
+  std::string eta() const;
   std::size_t total_;
   std::size_t done_;
   std::size_t done_at_start_;

@@ -2,6 +2,7 @@
 #include "results_file.hpp"
 
 #include "files.hpp"
+#include "isolation.hpp"
 #include "machine_json.hpp"
 #include "nnb/cloud.hpp"
 
@@ -55,6 +56,7 @@ ordered_json config_of(const RunDescription& run) {
   c["skip_larger_models"] = e.skip_larger_models;
   c["build_type"] = run.build.build_type;
   c["release"] = run.build.release();
+  if (!run.shard_config.empty()) c["shard"] = ordered_json::parse(run.shard_config);
   return c;
 }
 
@@ -88,6 +90,7 @@ ordered_json context_of(const RunDescription& run) {
                              {"params", i.params}, {"notes", i.notes}};
   }
   c["datasets"] = datasets_of(*run.data);
+  if (!run.shard_context.empty()) c["shard"] = ordered_json::parse(run.shard_context);
   c["resumed"] = ordered_json::array();
   return c;
 }
@@ -211,6 +214,18 @@ Record from_json(const json& j) {
 
 }  // namespace
 
+std::string batch_to_json_line(const std::vector<Record>& batch) {
+  ordered_json list = ordered_json::array();
+  for (const auto& r : batch) list.push_back(to_json(r));
+  return list.dump();
+}
+
+std::vector<Record> batch_from_json_line(const std::string& line) {
+  std::vector<Record> batch;
+  for (const auto& item : json::parse(line)) batch.push_back(from_json(item));
+  return batch;
+}
+
 ResultsFile::ResultsFile(std::string path, const RunDescription& run)
     : path_(std::move(path)), json_(std::make_unique<Json>()) {
   json_->context = context_of(run);
@@ -218,7 +233,7 @@ ResultsFile::ResultsFile(std::string path, const RunDescription& run)
 
 ResultsFile::~ResultsFile() = default;
 
-bool ResultsFile::resume() {
+bool ResultsFile::resume(bool retry_failed) {
   if (!std::filesystem::exists(path_)) return false;
   std::ifstream in(path_);
   json doc;
@@ -243,6 +258,7 @@ bool ResultsFile::resume() {
   try {
     for (const auto& item : doc["benchmarks"]) {
       Record r = from_json(item);
+      if (retry_failed && is_failure(r)) continue;
       if (names_.insert(r.name).second) {
         records_.push_back(r);
         serialised_.push_back(ordered_json::parse(item.dump()).dump(2));

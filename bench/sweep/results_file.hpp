@@ -24,7 +24,14 @@ struct RunDescription {
   const LoadedData* data;
   MachineInfo machine;
   BuildInfo build;
+  std::string shard_config;   ///< JSON joined to context.config as "shard"; empty when not sharded (shard.hpp)
+  std::string shard_context;  ///< JSON put in context as "shard"
 };
+
+/// A checkpoint batch as one line of JSON (records as in the file), and back: how a child process
+/// hands its cells to the sweep.
+std::string batch_to_json_line(const std::vector<Record>& batch);
+std::vector<Record> batch_from_json_line(const std::string& line);
 
 class ResultsFile final : public ResultsSink {
  public:
@@ -32,9 +39,10 @@ class ResultsFile final : public ResultsSink {
   ResultsFile(std::string path, const RunDescription& run);
   ~ResultsFile() override;
 
-  /// Loads the records of an existing file made with the same configuration; throws InputError if
-  /// the file is unreadable or its configuration differs. Returns false when there is no file.
-  bool resume();
+  /// Loads the records of an existing file made with the same configuration (without the cells whose
+  /// child crashed or timed out when retry_failed); throws InputError if the file is unreadable or its
+  /// configuration differs. Returns false when there is no file.
+  bool resume(bool retry_failed = false);
   /// Records already in the file (after resume()) and added since.
   const std::vector<Record>& records() const { return records_; }
 

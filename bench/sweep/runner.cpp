@@ -1,5 +1,6 @@
 #include "runner.hpp"
 
+#include "isolation.hpp"
 #include "memory.hpp"
 #include "size_gate.hpp"
 
@@ -7,6 +8,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <functional>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -15,6 +19,8 @@
 #include <numeric>
 #include <set>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace nnb::sweep {
 namespace {
@@ -267,6 +273,241 @@ std::vector<std::string> planned_cells(const Experiment& e, const std::vector<Pl
   return names;
 }
 
+namespace {
+
+// One index and its cells: the (model, adapter) unit that is built once, swept, and isolated together.
+struct Unit {
+  const std::string& model_spec;
+  const datasets::NamedCloud& model;
+  const PlannedAdapter& adapter;
+  std::string build;  // the build record's name
+  std::vector<std::pair<const DataPair*, std::vector<Group>>> work;
+  std::size_t to_do = 0;  // records still missing from the sink, the build's included
+};
+
+Unit plan_unit(const Experiment& e, const std::string& model_spec, const PlannedAdapter& adapter,
+               const LoadedData& data, const ResultsSink& sink) {
+  Unit unit{model_spec, data.models.at(model_spec), adapter, build_name(model_spec, adapter.name), {}, 0};
+  unit.to_do += !sink.has(unit.build);
+  for (const auto& pair : e.pairs) {
+    if (pair.model != model_spec) continue;
+    unit.work.emplace_back(&pair, groups_for(e, pair, adapter));
+    for (const auto& group : unit.work.back().second) {
+      for (const auto& cell : group.cells) unit.to_do += !sink.has(cell.name);
+    }
+  }
+  return unit;
+}
+
+Record build_record(const Unit& unit) {
+  Record b;
+  b.type = Record::Type::build;
+  b.name = unit.build;
+  b.model = unit.model_spec;
+  b.adapter = unit.adapter.name;
+  b.exact = unit.adapter.info.exact;
+  b.n_points = static_cast<std::size_t>(unit.model.points.cols());
+  return b;
+}
+
+// The unit's records not yet in the sink, every one skipped for the same reason.
+std::vector<Record> skipped_records(const Unit& unit, const std::string& reason, const LoadedData& data,
+                                    const std::function<bool(const std::string&)>& recorded) {
+  std::vector<Record> batch;
+  if (!recorded(unit.build)) {
+    batch.push_back(build_record(unit));
+    batch.back().skipped = reason;
+  }
+  for (const auto& [pair, groups] : unit.work) {
+    for (const auto& group : groups) {
+      for (const auto& cell : group.cells) {
+        if (recorded(cell.name)) continue;
+        batch.push_back(sweep_record(*pair, unit.adapter, group, cell, data));
+        batch.back().skipped = reason;
+      }
+    }
+  }
+  return batch;
+}
+
+// Construction: a fresh index per repetition; the last one answers the queries. Sets b's timings, or
+// b.skipped when the build failed.
+std::unique_ptr<SearchIndex> build_index(const Unit& unit, const Experiment& e, Record& b, double& slowest_s,
+                                         Progress& progress) {
+  std::unique_ptr<SearchIndex> index;
+  try {
+    std::vector<double> wall, cpu;
+    const bool peak_resets = reset_peak_rss();
+    const std::size_t rss_before = current_rss_bytes();
+    for (int rep = 0; rep < e.build_repetitions; ++rep) {
+      index.reset();
+      auto fresh = make_adapter(unit.adapter.name);
+      const double cpu0 = cpu_now_s();
+      const auto t0 = std::chrono::steady_clock::now();
+      fresh->build(unit.model.points);
+      const auto t1 = std::chrono::steady_clock::now();
+      cpu.push_back(cpu_now_s() - cpu0);
+      wall.push_back(std::chrono::duration<double>(t1 - t0).count());
+      index = std::move(fresh);
+      if (e.skip_larger_models && wall.back() > e.budget_s) break;
+    }
+    // Without a resettable peak, the growth of the RSS the finished index holds.
+    const std::size_t rss_after = peak_resets ? peak_rss_bytes() : current_rss_bytes();
+    b.build_peak_rss_bytes = rss_after > rss_before ? rss_after - rss_before : 0;
+    slowest_s = *std::max_element(wall.begin(), wall.end());
+    b.repetitions = static_cast<int>(wall.size());
+    b.wall = stats_of(wall);
+    b.cpu = stats_of(cpu);
+    b.index_bytes = index->index_bytes();
+  } catch (const std::bad_alloc&) {
+    b.skipped = "out of memory: std::bad_alloc building on " + std::to_string(b.n_points) + " points";
+    index.reset();
+    progress.loud("ERROR " + b.name + ": " + b.skipped);
+  } catch (const std::exception& ex) {
+    b.skipped = std::string("error: build failed: ") + ex.what();
+    index.reset();
+    progress.loud("ERROR " + b.name + ": " + ex.what());
+  }
+  return index;
+}
+
+// Fault injection for the isolation tests: NNB_SWEEP_CRASH_ADAPTER / NNB_SWEEP_HANG_ADAPTER make that
+// adapter's first cell crash (SIGSEGV) or hang, as a faulty library would.
+void inject_fault(const std::string& adapter) {
+  const char* crash = std::getenv("NNB_SWEEP_CRASH_ADAPTER");
+  if (crash && adapter == crash) std::raise(SIGSEGV);
+  const char* hang = std::getenv("NNB_SWEEP_HANG_ADAPTER");
+  if (hang && adapter == hang) {
+    for (;;) ::pause();
+  }
+}
+
+// Why the rest of a group is skipped after this cell: over the time or neighbour budget, or an error.
+std::string reason_to_stop(const Record& r, const Cell& cell, double slowest_s, const Experiment& e) {
+  const std::string dist_text = cell.max_dist_m ? " at max_dist " + cell.dist_label : "";
+  if (r.skipped.empty() && slowest_s > e.budget_s) {
+    return "over budget: " + seconds_text(slowest_s) + " s" + dist_text + " > " + seconds_text(e.budget_s) + " s";
+  }
+  if (!r.skipped.empty()) return r.skipped + dist_text;  // errors repeat: say it once
+  if (r.neighbours > e.neighbour_budget) {
+    return "over neighbour budget: " + std::to_string(r.neighbours) + " neighbours" + dist_text + " > " +
+           std::to_string(e.neighbour_budget);
+  }
+  return "";
+}
+
+struct SweepState {
+  const Experiment& e;
+  const LoadedData& data;
+  Agreement& agreement;
+  SizeGate& gate;
+  Progress& progress;
+  std::size_t disagreements = 0;  // found in this run
+};
+
+// Runs one cell; the larger distances of its group are recorded skipped in the same checkpoint when it
+// went over a budget or failed. Returns the reason the group stops, empty when it goes on.
+std::string sweep_cell(const Unit& unit, const DataPair& pair, const Group& group, std::size_t c,
+                       const SearchIndex& index, SweepState& s, ResultsSink& sink) {
+  const Cell& cell = group.cells[c];
+  Record r = sweep_record(pair, unit.adapter, group, cell, s.data);
+  s.progress.begin(cell.name);
+  double slowest_s = 0.0;
+  try {
+    inject_fault(unit.adapter.name);
+    slowest_s = run_cell(index, s.data.queries.at(pair.query).points, group, cell, s.e, r);
+  } catch (const std::bad_alloc&) {
+    r.skipped = "out of memory: std::bad_alloc";
+    s.progress.loud("ERROR " + cell.name + ": " + r.skipped);
+  } catch (const std::exception& ex) {
+    r.skipped = std::string("error: ") + ex.what();
+    s.progress.loud("ERROR " + cell.name + ": " + ex.what());
+  }
+  s.gate.judge_cell(r, slowest_s);
+  s.gate.observe(r);
+  if (!r.skips_larger.empty()) s.progress.loud(unit.adapter.name + ": larger models will be skipped: " + r.skips_larger);
+  if (!s.agreement.check(r)) s.progress.loud("DISAGREEMENT " + cell.name + ": " + r.disagreement);
+  const std::string stop = reason_to_stop(r, cell, slowest_s, s.e);
+  const std::string outcome =
+      r.skipped.empty() ? seconds_text(r.wall.median_s) + " s, found " + std::to_string(r.found) : r.skipped;
+  std::vector<Record> batch{std::move(r)};
+  for (std::size_t later = c + 1; !stop.empty() && later < group.cells.size(); ++later) {
+    if (sink.has(group.cells[later].name)) continue;
+    batch.push_back(sweep_record(pair, unit.adapter, group, group.cells[later], s.data));
+    batch.back().skipped = stop;
+  }
+  sink.add(batch);
+  s.progress.end(1, outcome);
+  if (batch.size() > 1) {
+    s.progress.begin(group.cells.back().name);
+    s.progress.end(batch.size() - 1, "skipped " + std::to_string(batch.size() - 1) + " cells: " + stop);
+  }
+  return stop;
+}
+
+// The unit's build and cells, as one process runs them (in the child when isolated).
+void run_unit(const Unit& unit, SweepState& s, ResultsSink& sink) {
+  s.progress.begin(unit.build);
+  Record b = build_record(unit);
+  double slowest_build_s = 0.0;
+  const std::unique_ptr<SearchIndex> index = build_index(unit, s.e, b, slowest_build_s, s.progress);
+  s.gate.judge_build(b, slowest_build_s);
+  s.gate.observe(b);
+  if (!b.skips_larger.empty()) s.progress.loud(unit.adapter.name + ": larger models will be skipped: " + b.skips_larger);
+  if (!sink.has(unit.build)) {
+    sink.add({b});
+    s.progress.end(1, b.skipped.empty() ? "built in " + seconds_text(b.wall.median_s) + " s" : b.skipped);
+  }
+  for (const auto& [pair, groups] : unit.work) {
+    for (const auto& group : groups) {
+      std::string stop = b.skipped;
+      for (std::size_t c = 0; c < group.cells.size(); ++c) {
+        if (sink.has(group.cells[c].name)) continue;
+        if (!stop.empty()) {  // the build failed: every cell says why
+          Record r = sweep_record(*pair, unit.adapter, group, group.cells[c], s.data);
+          r.skipped = stop;
+          s.progress.begin(group.cells[c].name);
+          sink.add({r});
+          s.progress.end(1, "skipped: " + stop);
+          continue;
+        }
+        if (!(stop = sweep_cell(unit, *pair, group, c, *index, s, sink)).empty()) break;
+      }
+    }
+  }
+}
+
+// The unit in a child process; its batches land in the sink here. When the child crashes or hangs, the
+// cells it did not finish are recorded failed with the reason, and the sweep goes on.
+void run_unit_isolated(const Unit& unit, SweepState& s, ResultsSink& sink) {
+  std::set<std::string> received;
+  const auto on_batch = [&](const std::vector<Record>& batch) {
+    for (const auto& r : batch) {
+      received.insert(r.name);
+      s.disagreements += r.agrees && !*r.agrees;
+      s.agreement.remember(r);
+      s.gate.observe(r);
+    }
+    s.progress.advance(batch.size());
+    sink.add(batch);
+  };
+  const std::string failure =
+      run_in_child(sink, [&](ResultsSink& pipe) { run_unit(unit, s, pipe); }, on_batch, s.e.cell_timeout_s);
+  if (failure == "interrupted") {
+    sink.add({});  // writes the checkpoint and stops the run
+    return;
+  }
+  if (failure.empty()) return;
+  const std::string reason = failure + " in " + unit.adapter.name;
+  s.progress.loud("ERROR " + unit.build + ": " + reason);
+  const auto batch = skipped_records(unit, reason, s.data,
+                                     [&](const std::string& name) { return sink.has(name) || received.count(name); });
+  sink.add(batch);
+  s.progress.advance(batch.size());
+}
+
+}  // namespace
+
 std::size_t run_experiment(const Experiment& e, const LoadedData& data, const std::vector<PlannedAdapter>& adapters,
                            const std::vector<Record>& previous, ResultsSink& sink, Progress& progress,
                            const UnitFilter& in_shard) {
@@ -276,178 +517,25 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
     agreement.remember(r);
     gate.observe(r);
   }
-  std::size_t disagreements = 0;
-
+  SweepState state{e, data, agreement, gate, progress, 0};
   for (const auto& model_spec : distinct_models(e)) {
-    const datasets::NamedCloud& model = data.models.at(model_spec);
     for (const auto& adapter : adapters) {
       if (in_shard && !in_shard(model_spec, adapter.name)) continue;
-      // The cells of this (model, adapter); build only if one of them is still to do.
-      std::vector<std::pair<const DataPair*, std::vector<Group>>> work;
-      std::size_t to_do = 0, total = 1;
-      const std::string build = build_name(model_spec, adapter.name);
-      to_do += !sink.has(build);
-      for (const auto& pair : e.pairs) {
-        if (pair.model != model_spec) continue;
-        work.emplace_back(&pair, groups_for(e, pair, adapter));
-        for (const auto& group : work.back().second) {
-          for (const auto& cell : group.cells) {
-            to_do += !sink.has(cell.name);
-            ++total;
-          }
-        }
-      }
-      if (to_do == 0) continue;
-
-      progress.begin(build);
-      Record b;
-      b.type = Record::Type::build;
-      b.name = build;
-      b.model = model_spec;
-      b.adapter = adapter.name;
-      b.exact = adapter.info.exact;
-      b.n_points = static_cast<std::size_t>(model.points.cols());
-
+      const Unit unit = plan_unit(e, model_spec, adapter, data, sink);
+      if (unit.to_do == 0) continue;
       // Over the memory limit or closed by a smaller model: the build and all its cells are recorded skipped.
-      if (const std::string gated = gate.reason_to_skip(adapter.name, model_spec, b.n_points); !gated.empty()) {
-        std::vector<Record> batch;
-        b.skipped = gated;
-        if (!sink.has(build)) batch.push_back(b);
-        for (const auto& [pair, groups] : work) {
-          for (const auto& group : groups) {
-            for (const auto& cell : group.cells) {
-              if (sink.has(cell.name)) continue;
-              batch.push_back(sweep_record(*pair, adapter, group, cell, data));
-              batch.back().skipped = gated;
-            }
-          }
-        }
+      if (const std::string gated = gate.reason_to_skip(adapter.name, model_spec, unit.model.points.cols());
+          !gated.empty()) {
+        const auto batch = skipped_records(unit, gated, data, [&](const std::string& name) { return sink.has(name); });
+        progress.begin(unit.build);
         sink.add(batch);
         progress.end(batch.size(), "skipped " + std::to_string(batch.size()) + " cells: " + gated);
         continue;
       }
-
-      // Construction: a fresh index per repetition; the last one answers the queries.
-      std::unique_ptr<SearchIndex> index;
-      std::string build_error;
-      double slowest_build_s = 0.0;
-      try {
-        std::vector<double> wall, cpu;
-        const bool peak_resets = reset_peak_rss();
-        const std::size_t rss_before = current_rss_bytes();
-        for (int rep = 0; rep < e.build_repetitions; ++rep) {
-          index.reset();
-          auto fresh = make_adapter(adapter.name);
-          const double cpu0 = cpu_now_s();
-          const auto t0 = std::chrono::steady_clock::now();
-          fresh->build(model.points);
-          const auto t1 = std::chrono::steady_clock::now();
-          cpu.push_back(cpu_now_s() - cpu0);
-          wall.push_back(std::chrono::duration<double>(t1 - t0).count());
-          index = std::move(fresh);
-          if (e.skip_larger_models && wall.back() > e.budget_s) break;
-        }
-        // Without a resettable peak, the growth of the RSS the finished index holds.
-        const std::size_t rss_after = peak_resets ? peak_rss_bytes() : current_rss_bytes();
-        b.build_peak_rss_bytes = rss_after > rss_before ? rss_after - rss_before : 0;
-        slowest_build_s = *std::max_element(wall.begin(), wall.end());
-        b.repetitions = static_cast<int>(wall.size());
-        b.wall = stats_of(wall);
-        b.cpu = stats_of(cpu);
-        b.index_bytes = index->index_bytes();
-      } catch (const std::bad_alloc&) {
-        build_error = "out of memory: std::bad_alloc building on " + std::to_string(b.n_points) + " points";
-        b.skipped = build_error;
-        index.reset();
-        progress.loud("ERROR " + build + ": " + build_error);
-      } catch (const std::exception& ex) {
-        build_error = std::string("error: build failed: ") + ex.what();
-        b.skipped = build_error;
-        index.reset();
-        progress.loud("ERROR " + build + ": " + ex.what());
-      }
-      gate.judge_build(b, slowest_build_s);
-      gate.observe(b);
-      if (!b.skips_larger.empty()) progress.loud(adapter.name + ": larger models will be skipped: " + b.skips_larger);
-      if (!sink.has(build)) {
-        sink.add({b});
-        progress.end(1, build_error.empty() ? "built in " + seconds_text(b.wall.median_s) + " s" : build_error);
-      }
-
-      for (const auto& [pair, groups] : work) {
-        const Cloud& queries = data.queries.at(pair->query).points;
-        for (const auto& group : groups) {
-          std::string skip_reason = build_error;
-          for (std::size_t c = 0; c < group.cells.size(); ++c) {
-            const Cell& cell = group.cells[c];
-            if (sink.has(cell.name)) continue;
-            Record r = sweep_record(*pair, adapter, group, cell, data);
-            std::vector<Record> batch;
-            progress.begin(cell.name);
-            if (!skip_reason.empty()) {
-              r.skipped = skip_reason;
-              batch.push_back(std::move(r));
-              sink.add(batch);
-              progress.end(1, "skipped: " + skip_reason);
-              continue;
-            }
-            double slowest_s = 0.0;
-            try {
-              slowest_s = run_cell(*index, queries, group, cell, e, r);
-            } catch (const std::bad_alloc&) {
-              r.skipped = "out of memory: std::bad_alloc";
-              progress.loud("ERROR " + cell.name + ": " + r.skipped);
-            } catch (const std::exception& ex) {
-              r.skipped = std::string("error: ") + ex.what();
-              progress.loud("ERROR " + cell.name + ": " + ex.what());
-            }
-            gate.judge_cell(r, slowest_s);
-            gate.observe(r);
-            if (!r.skips_larger.empty()) {
-              progress.loud(adapter.name + ": larger models will be skipped: " + r.skips_larger);
-            }
-            if (!agreement.check(r)) {
-              ++disagreements;
-              progress.loud("DISAGREEMENT " + cell.name + ": " + r.disagreement);
-            }
-            const std::string dist_text = cell.max_dist_m ? " at max_dist " + cell.dist_label : "";
-            if (r.skipped.empty() && slowest_s > e.budget_s) {
-              skip_reason = "over budget: " + seconds_text(slowest_s) + " s" + dist_text + " > " +
-                            seconds_text(e.budget_s) + " s";
-            } else if (!r.skipped.empty()) {  // errors repeat: say it once, skip the rest of the sweep
-              skip_reason = r.skipped + dist_text;
-            } else if (r.neighbours > e.neighbour_budget) {
-              skip_reason = "over neighbour budget: " + std::to_string(r.neighbours) + " neighbours" + dist_text +
-                            " > " + std::to_string(e.neighbour_budget);
-            }
-            const std::string outcome = r.skipped.empty() ? seconds_text(r.wall.median_s) + " s, found " +
-                                                                std::to_string(r.found)
-                                                          : r.skipped;
-            batch.push_back(std::move(r));
-            // The larger distances are recorded skipped in the same checkpoint as the cell that went over.
-            std::size_t skipped_now = 0;
-            if (!skip_reason.empty()) {
-              for (std::size_t later = c + 1; later < group.cells.size(); ++later) {
-                if (sink.has(group.cells[later].name)) continue;
-                Record s = sweep_record(*pair, adapter, group, group.cells[later], data);
-                s.skipped = skip_reason;
-                batch.push_back(std::move(s));
-                ++skipped_now;
-              }
-              c = group.cells.size();
-            }
-            sink.add(batch);
-            progress.end(1, outcome);
-            if (skipped_now > 0) {
-              progress.begin(group.cells.back().name);
-              progress.end(skipped_now, "skipped " + std::to_string(skipped_now) + " cells: " + skip_reason);
-            }
-          }
-        }
-      }
+      run_unit_isolated(unit, state, sink);
     }
   }
-  return disagreements;
+  return state.disagreements;
 }
 
 }  // namespace nnb::sweep
