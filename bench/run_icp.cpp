@@ -1,6 +1,7 @@
 // run_icp: point-to-point ICP of a query cloud onto a model cloud with any adapter as the
 // nearest-neighbour search, or a whole ICP experiment (bench/experiments/icp_*.json).
 #include "cli_common.hpp"
+#include "progress.hpp"
 #include "icp.hpp"
 #include "icp_experiment.hpp"
 #include "icp_record.hpp"
@@ -17,6 +18,8 @@
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace {
 
@@ -183,6 +186,9 @@ int run_experiment(const std::string& name, std::string out_path, const ds::Data
   for (const auto& a : adapters) std::cout << " " << a;
   std::cout << "\nwriting " << out_path << "\n";
   std::vector<icp::Record> records;
+  const std::size_t buckets_each = std::max<std::size_t>(1, e.bucket_sizes.size());
+  nnb::bench::Progress progress(e.pairs.size() * adapters.size() * buckets_each * std::size_t(e.repetitions), 0,
+                                isatty(STDERR_FILENO) != 0);
   for (const auto& pair : e.pairs) {
     const icp::Settings& s = icp::settings_for(e, pair);
     const Input in = load_input(pair, pair, data, s.query_stride);
@@ -197,13 +203,16 @@ int run_experiment(const std::string& name, std::string out_path, const ds::Data
         if (bucket) params[bucket_param] = std::to_string(*bucket);
         for (int rep = 0; rep < e.repetitions; ++rep) {
           icp::Record rec;
+          progress.begin(pair + " " + adapter + (bucket ? " " + bucket_param + "=" + std::to_string(*bucket) : ""));
           try {
             rec = run_one(in, adapter, params, options_of(s, in.initial), s.query_stride, rep);
           } catch (const InputError& err) {  // e.g. a bucket size the library refuses
             std::cout << "skipped " << adapter << " " << bucket_param << "=" << (bucket ? *bucket : 0) << ": "
                       << err.what() << "\n";
+            progress.end(std::size_t(e.repetitions - rep), std::string("skipped: ") + err.what());
             break;
           }
+          progress.end(1, rec.result.failure.empty() ? "done" : rec.result.failure);
           print_summary(std::cout, rec, false);
           records.push_back(std::move(rec));
           nnb::files::write_file_atomically(out_path, icp::results_json(records, nnb::cli::build_type(),
@@ -212,6 +221,7 @@ int run_experiment(const std::string& name, std::string out_path, const ds::Data
       }
     }
   }
+  progress.finish();
   std::cout << records.size() << " records written to " << out_path << "\n";
   return 0;
 }

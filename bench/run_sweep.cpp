@@ -2,7 +2,7 @@
 // results/README.md). Exit codes: 0 done, 2 bad input (nothing written), 1 other failure.
 #include "sweep/experiment.hpp"
 #include "machine.hpp"
-#include "sweep/progress.hpp"
+#include "progress.hpp"
 #include "sweep/results_file.hpp"
 #include "sweep/runner.hpp"
 #include "sweep/shard.hpp"

@@ -16,6 +16,8 @@
 
 namespace nnb::sweep {
 
+using bench::Progress;
+
 /// The clouds of an experiment, resolved once: by spec, as model and as query.
 struct LoadedData {
   std::map<std::string, datasets::NamedCloud> models;

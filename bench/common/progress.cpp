@@ -4,7 +4,7 @@
 #include <iostream>
 #include <sstream>
 
-namespace nnb::sweep {
+namespace nnb::bench {
 namespace {
 
 std::string format_duration(double seconds) {
@@ -64,4 +64,4 @@ void Progress::draw() {
   std::cerr << "\r\033[K[" << bar << "] " << done_ << "/" << total_ << " ETA " << eta() << " " << label << std::flush;
 }
 
-}  // namespace nnb::sweep
+}  // namespace nnb::bench

@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <string>
 
-namespace nnb::sweep {
+namespace nnb::bench {
 
 class Progress {
  public:
@@ -32,4 +32,4 @@ class Progress {
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
-}  // namespace nnb::sweep
+}  // namespace nnb::bench
