@@ -10,10 +10,13 @@ WINDOW_M = (0.30, 0.55)  # "near 1/3 to 1/2", one step of margin
 
 
 def grid(results):
-    """{(model, query): {(adapter, kind): {max_dist or None: cell}}} over the synthetic combinations."""
+    """{(model, query): {(adapter, kind): {max_dist or None: cell}}} over the synthetic combinations.
+
+    Approximate adapters answer another question, so they never compete."""
     out = {}
+    approximate = {a for a, info in results.adapters.items() if info.get("exact") is False}
     for c in results.sweep:
-        if c.model in SHAPES and c.query in SHAPES and c.adapter != REFERENCE:
+        if c.model in SHAPES and c.query in SHAPES and c.adapter != REFERENCE and c.adapter not in approximate:
             out.setdefault((c.model, c.query), {}).setdefault((c.adapter, c.search), {})[c.max_dist_m] = c
     return out
 

@@ -1,30 +1,56 @@
-"""Figure 4: construction time per data structure and model cloud, y axis split linear (low) + log (high)."""
+"""Figure 4: construction time, one panel per model cloud, adapters sorted fastest first, missing ones marked."""
 import math
-from statistics import mean
 
 import numpy as np
 
 import style
-from results_io import SHAPES, warn
+from results_io import SHAPES, latest_builds, warn
 
 plt = style.plt
-
-
-def _nice_ceil(x):
-    """Smallest of 1, 2, 5 x 10^n that is >= x."""
-    exp = math.floor(math.log10(x))
-    for m in (1, 2, 5, 10):
-        if m * 10 ** exp >= x:
-            return m * 10 ** exp
-    return 10 ** (exp + 1)
+COLUMNS = 4
 
 
 def build_table(results):
-    """{(model, adapter): mean build seconds} over every build record."""
-    times = {}
-    for b in results.builds:
-        times.setdefault((b.model, b.adapter), []).append(b.build_seconds)
-    return {k: mean(v) for k, v in times.items()}
+    """{(model, adapter): build seconds}, each from the newest run that built it (runs are never mixed)."""
+    return {k: b.build_seconds for k, b in latest_builds(results).items()}
+
+
+def model_order(results, models):
+    """The paper's shapes first, then the other clouds by their number of points (numeric, not string order)."""
+    sizes = {b.model: b.n_points for b in results.builds if b.n_points}
+    return sorted(models, key=lambda m: (SHAPES.index(m) if m in SHAPES else len(SHAPES), sizes.get(m) or math.inf, m))
+
+
+def model_title(results, model):
+    sizes = [b.n_points for b in results.builds if b.model == model and b.n_points]
+    return model.replace("_", " ") + (f" ({sizes[0]:,.0f} points)" if sizes else "")
+
+
+def draw_model(ax, results, model, table, adapters):
+    """Sorted horizontal bars with their values; adapters not built on this model get a labelled gap."""
+    built = sorted((table[(model, a)], a) for a in adapters if (model, a) in table)
+    missing = [a for a in adapters if (model, a) not in table]
+    names = [a for _, a in built] + missing
+    ys = np.arange(len(names))[::-1]
+    low = min(t for t, _ in built) if built else 1e-3
+    for y, (seconds, adapter) in zip(ys, built):
+        colour = style.adapter_colour(adapter, results)
+        hollow = style.is_approximate(adapter, results)
+        ax.barh(y, seconds, color="white" if hollow else colour, edgecolor=colour, hatch="///" if hollow else None,
+                left=0)
+        ax.text(seconds, y, f" {seconds:.3g}", va="center", fontsize=9)
+    for y, adapter in zip(ys[len(built):], missing):
+        reason = results.build_skips.get((model, adapter))
+        ax.text(low / 1.8, y, "not built" + (": over a budget" if reason and "budget" in reason else
+                                        ": skipped" if reason else ": no record"),
+                va="center", fontsize=9, color="#b00020", style="italic")
+    ax.set_yticks(ys, [style.short_label(a, results) for a in names])
+    ax.set_xscale("log")
+    if built:
+        ax.set_xlim(low / 2, max(t for t, _ in built) * 12)
+    ax.set_title(model_title(results, model), fontsize=10)
+    ax.set_xlabel("build time (s), log")
+    ax.grid(axis="y", visible=False)
 
 
 def fig4(results, out_dir):
@@ -32,34 +58,17 @@ def fig4(results, out_dir):
     if not table:
         warn("fig4: no build records: figure skipped")
         return None
-    models = sorted({m for m, _ in table}, key=lambda m: (SHAPES.index(m) if m in SHAPES else 99, m))
+    models = model_order(results, {m for m, _ in table})
     adapters = sorted({a for _, a in table})
-    values = np.array(list(table.values()))
-    split = _nice_ceil(float(np.percentile(values, 75)) * 1.2)
-    top_max = max(float(values.max()) * 2, split * 10)
-    fig, (ax_log, ax_lin) = plt.subplots(2, 1, sharex=True, figsize=(max(8, 1.2 * len(models) * len(adapters) / 3), 7),
-                                         gridspec_kw={"height_ratios": [1, 2], "hspace": 0.06})
-    width = 0.8 / len(adapters)
-    for i, adapter in enumerate(adapters):
-        xs = [j + (i - (len(adapters) - 1) / 2) * width for j, m in enumerate(models) if (m, adapter) in table]
-        ys = [table[(m, adapter)] for m in models if (m, adapter) in table]
-        colour, _ = style.adapter_style(adapter)
-        ax_lin.bar(xs, ys, width, color=colour, label=style.library_label(adapter, results))
-        high = [(x, y) for x, y in zip(xs, ys) if y > split]
-        if high:
-            ax_log.bar([x for x, _ in high], [y - split for _, y in high], width, bottom=split, color=colour)
-    ax_lin.set_ylim(0, split)
-    ax_log.set_yscale("log")
-    ax_log.set_ylim(split, top_max)
-    ax_log.spines["bottom"].set_visible(False)
-    ax_lin.spines["top"].set_visible(False)
-    ax_log.tick_params(axis="x", bottom=False)
-    for ax, y in ((ax_log, 0), (ax_lin, 1)):  # the usual diagonal marks of a broken axis
-        ax.plot([0, 1], [y, y], transform=ax.transAxes, color="k", linestyle=(0, (4, 3)), clip_on=False, lw=0.8)
-    ax_lin.set_xticks(range(len(models)), [m.replace("_", " ") for m in models], rotation=20, ha="right")
-    ax_lin.set_ylabel(f"build time (s), linear to {split:g}")
-    ax_log.set_ylabel("build time (s), log")
-    ax_log.set_title("Construction time per data structure and model cloud (mean over records)")
-    ax_lin.set_xlabel("model cloud")
-    ax_lin.legend(loc="upper center", bbox_to_anchor=(0.5, -0.25), ncol=3, frameon=False)
+    rows = math.ceil(len(models) / COLUMNS)
+    height = 0.19 * len(adapters) + 1.1
+    fig, axes = plt.subplots(rows, min(COLUMNS, len(models)), figsize=(style.PAGE_WIDTH_IN, rows * height + 0.8),
+                             squeeze=False)
+    for ax, model in zip(axes.flat, models):
+        draw_model(ax, results, model, table, adapters)
+    for ax in list(axes.flat)[len(models):]:
+        ax.axis("off")
+    fig.suptitle("Figure 4: construction time per model cloud, fastest first (newest run of each; "
+                 "hollow grey: approximate)", y=1.0)
+    fig.tight_layout()
     return style.save(fig, out_dir, "fig4_construction")

@@ -3,7 +3,7 @@ and each adapter's growth exponent (least-squares slope of log time against log 
 import numpy as np
 
 import style
-from results_io import warn
+from results_io import latest_builds, warn
 
 plt = style.plt
 MIN_SIZES = 3  # a query searched against at least this many model sizes makes a scale series
@@ -42,13 +42,11 @@ def scale_table(results):
             row["query"].append((int(c.n_points), c.seconds / c.n_queries))
         elif row["stopped"] is None:
             row["stopped"] = (int(c.n_points), c.skipped)
-    builds = {}
-    for b in results.builds:
-        if b.model in models and b.adapter in table:
-            builds.setdefault((b.adapter, models[b.model]), []).append(b.build_seconds)
-    for (adapter, n), seconds in sorted(builds.items()):
-        if seconds and min(seconds) > 0:
-            table[adapter]["build"].append((n, sum(seconds) / len(seconds)))
+    for (model, adapter), b in sorted(latest_builds(results).items(), key=lambda kv: models.get(kv[0][0], 0)):
+        if model in models and adapter in table and b.build_seconds > 0:
+            table[adapter]["build"].append((models[model], b.build_seconds))
+            if b.index_bytes:
+                table[adapter].setdefault("memory", []).append((models[model], b.index_bytes / models[model]))
     return key, table
 
 
@@ -95,27 +93,32 @@ def fig8(results, out_dir):
              "figure skipped")
         return None
     write_exponents(key, table, out_dir)
-    fig, (ax_query, ax_build) = plt.subplots(1, 2, figsize=(12, 5))
+    fig = plt.figure(figsize=(style.PAGE_WIDTH_IN, 6.4))
+    grid_spec = fig.add_gridspec(2, 3, height_ratios=[3, 1.1], hspace=0.35, wspace=0.3)
+    panels = [(fig.add_subplot(grid_spec[0, i]), part) for i, part in enumerate(("query", "build", "memory"))]
     for adapter in sorted(table):
-        colour, marker = style.adapter_style(adapter)
-        label = style.library_label(adapter, results)
-        for ax, points in ((ax_query, table[adapter]["query"]), (ax_build, table[adapter]["build"])):
+        for ax, part in panels:
+            points = table[adapter].get(part, [])
             if points:
                 ns, ts = zip(*points)
-                ax.plot(ns, [t * (1e6 if ax is ax_query else 1.0) for t in ts], color=colour, marker=marker,
-                        markersize=5, linewidth=1.4, label=label)
+                ax.plot(ns, [t * (1e6 if part == "query" else 1.0) for t in ts], linewidth=1.4,
+                        label=style.short_label(adapter, results), **style.marker_kw(adapter, results))
     query, search, max_dist, _ = key
+    (ax_query, _), (ax_build, _), (ax_memory, _) = panels
     ax_query.set_ylabel("time per query (µs)")
-    ax_query.set_title(f"{search} 1-NN" + (f" at {max_dist:g} m" if max_dist is not None else "")
-                       + f", queries: {query}")
+    ax_query.set_title(f"{search} 1-NN" + (f" at {max_dist:g} m" if max_dist is not None else ""))
     ax_build.set_ylabel("build time (s)")
     ax_build.set_title("construction")
-    for ax in (ax_query, ax_build):
+    ax_memory.set_ylabel("index bytes per model point (B)")
+    ax_memory.set_title("memory beyond the points")
+    for ax, _ in panels:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("model points n")
-    handles, labels = ax_query.get_legend_handles_labels()
-    fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=min(4, max(1, len(labels))),
-               frameon=False)
-    fig.suptitle("Growth with the model size (log-log); an adapter's line ends where it went over a budget")
+    key_ax = fig.add_subplot(grid_spec[1, :])
+    key_ax.axis("off")
+    key_ax.legend(handles=style.adapter_handles(sorted(table, key=lambda a: (style.family(a), a)), results),
+                  loc="upper center", ncol=5, frameon=False, title="adapter (colour: library, marker: structure)")
+    fig.suptitle(f"Figure 8: growth with the model size, log-log, queries: {query}; a line ends where the "
+                 "adapter went over a budget")
     return style.save(fig, out_dir, "fig8_scale")

@@ -8,6 +8,8 @@ from results_io import SHAPES, sweep_series, warn
 
 plt = style.plt
 BEST_COUNT = 6
+FIG3 = ("hollow_sphere", "hollow_cube")  # (model, query)
+ZOOM_COUNT = 3
 
 
 def _panel_distances(series):
@@ -15,81 +17,125 @@ def _panel_distances(series):
     return dists or [0.0, 1.0]
 
 
+def series_xy(cells, dists):
+    """(xs, ys) of one series; k-NN, recorded once, is flat over the swept distances; skipped cells are NaN."""
+    if all(c.max_dist_m is None for c in cells):
+        run = [c for c in cells if c.seconds is not None]
+        ys = run[-1].seconds if run else math.nan
+        return np.array(dists), np.full(len(dists), ys)
+    cells = [c for c in cells if c.max_dist_m is not None]
+    return (np.array([c.max_dist_m for c in cells]),
+            np.array([math.nan if c.seconds is None else c.seconds for c in cells]))
+
+
 def draw_series(ax, results, key, cells, dists):
     """Draws one adapter+kind; the last point before a skipped cell gets an 'x'. Returns the line or None."""
     adapter, kind = key
-    kw = style.line_kw(adapter, kind)
+    kw = style.line_kw(adapter, kind, cells[0].strategy, results)
     label = style.series_label(adapter, kind, cells[0].strategy, results)
-    if all(c.max_dist_m is None for c in cells):  # k-NN recorded once: flat over the swept distances
-        run = [c for c in cells if c.seconds is not None]
-        if not run:
-            warn(f"{cells[0].model}/{cells[0].query}/{adapter}/{kind}: skipped ({cells[0].skipped}), not drawn")
-            return None
-        xs = np.array(dists)
-        (line,) = ax.plot(xs, np.full(len(xs), run[-1].seconds), label=label,
-                          markevery=max(1, len(xs) // 6), **kw)
-        return line
-    cells = [c for c in cells if c.max_dist_m is not None]
-    xs = np.array([c.max_dist_m for c in cells])
-    ys = np.array([math.nan if c.seconds is None else c.seconds for c in cells])
+    xs, ys = series_xy(cells, dists)
     if np.all(np.isnan(ys)):
         warn(f"{cells[0].model}/{cells[0].query}/{adapter}/{kind}: every cell skipped, not drawn")
         return None
     (line,) = ax.plot(xs, ys, label=label, markevery=max(1, len(xs) // 8), **kw)
-    ends = [i - 1 for i in range(1, len(cells)) if cells[i].seconds is None and cells[i - 1].seconds is not None]
+    ends = [i - 1 for i in range(1, len(ys)) if np.isnan(ys[i]) and not np.isnan(ys[i - 1])]
     if ends:
         ax.plot(xs[ends], ys[ends], color=kw["color"], **style.SKIP_MARKER)
     return line
 
 
 def draw_panel(ax, results, model, query, keys=None):
-    """Draws the chosen (adapter, kind) series of one combination; returns {label: line}."""
+    """Draws the chosen (adapter, kind) series of one combination; returns the keys drawn."""
     series = sweep_series(results, model, query)
     dists = _panel_distances(series)
-    lines = {}
+    drawn = []
     for key in sorted(series):
         if keys is None or key in keys:
-            line = draw_series(ax, results, key, series[key], dists)
-            if line is not None:
-                lines[line.get_label()] = line
+            if draw_series(ax, results, key, series[key], dists) is not None:
+                drawn.append(key)
     ax.set_xlim(min(dists), max(dists))
-    return lines
-
-
-def _legend(fig, lines, ncol):
-    handles = [lines[k] for k in sorted(lines)]
-    handles.append(plt.Line2D([], [], color="black", **style.SKIP_MARKER))
-    fig.legend(handles, [h.get_label() for h in handles[:-1]] + ["last cell before skipped ones (over budget)"],
-               loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=ncol, frameon=False)
+    return drawn
 
 
 def _values(series, keys):
     return [c.seconds for k in keys for c in series.get(k, []) if c.seconds is not None]
 
 
+def _classes(results, series, keys):
+    return {style.strategy_class(k[1], series[k][0].strategy) for k in keys if k in series}
+
+
+def fastest_exact(results, series, count):
+    """Each adapter's best series, the `count` of lowest mean log time (a skipped cell costs twice the
+    slowest time), approximate adapters and brute force never among them."""
+    contenders = {k: v for k, v in series.items() if _values(series, [k]) and k[0] != "brute_force"
+                  and not style.is_approximate(k[0], results)}
+    if not contenders:
+        return []
+    dists = _panel_distances(series)
+    penalty = 2 * max(v for k in contenders for v in _values(contenders, [k]))
+    scores = {k: _score(contenders, k, dists, penalty) for k in contenders}
+    best = {}
+    for key in sorted(scores, key=scores.get):
+        best.setdefault(key[0], key)
+    return sorted(best.values(), key=scores.get)[:count]
+
+
+def adapter_order(keys):
+    """Adapters of the keys, grouped by library."""
+    return sorted({k[0] for k in keys}, key=lambda a: (style.family(a), a))
+
+
 def fig3(results, out_dir):
-    """Hollow cube queries against the hollow sphere model: log overview and linear zoom."""
-    model, query = "hollow_sphere", "hollow_cube"
+    """Hollow cube queries against the hollow sphere model: log overview and linear zoom on the fastest."""
+    model, query = FIG3
     series = sweep_series(results, model, query)
     if not series:
         warn("fig3: no sweep cells for model hollow_sphere / query hollow_cube: figure skipped")
         return None
-    fig, (ax_log, ax_lin) = plt.subplots(1, 2, figsize=(13, 5))
-    lines = draw_panel(ax_log, results, model, query)
-    draw_panel(ax_lin, results, model, query)
+    fig = plt.figure(figsize=(style.PAGE_WIDTH_IN, 8.0))
+    grid_spec = fig.add_gridspec(2, 2, height_ratios=[3, 1.0], hspace=0.28, wspace=0.18)
+    ax_log, ax_lin, ax_key = (fig.add_subplot(grid_spec[0, 0]), fig.add_subplot(grid_spec[0, 1]),
+                              fig.add_subplot(grid_spec[1, :]))
+    drawn = draw_panel(ax_log, results, model, query)
     style.log_y(ax_log)
-    ax_log.set_title("all adapters, log scale")
-    fastest = sorted((k for k in series if _values(series, [k])),
-                     key=lambda k: np.mean(_values(series, [k])))[:3]
-    top = 1.2 * max(_values(series, fastest))
+    ax_log.set_title("every adapter and kind, log scale")
+    fastest = fastest_exact(results, series, ZOOM_COUNT)
+    draw_panel(ax_lin, results, model, query, set(fastest))
+    top = 1.15 * max(_values(series, fastest)) if fastest else 1.0
     ax_lin.set_ylim(0, top)
-    ax_lin.set_title(f"linear zoom: 0 to {top:.3g} s (about the 3 fastest)")
+    ax_lin.set_title(f"linear zoom on the {len(fastest)} fastest exact adapters (approximate ones not ranked)")
     for ax in (ax_log, ax_lin):
-        ax.set_xlabel("max distance (m)")
+        ax.set_xlabel("maximal distance (m)")
         ax.set_ylabel("time for all queries (s)")
-    fig.suptitle("Query: hollow cube, model: hollow sphere")
-    _legend(fig, lines, 3)
+    n_queries = next((c.n_queries for cells in series.values() for c in cells if c.n_queries), None)
+    fig.suptitle(f"Figure 3: {query.replace('_', ' ')} queries" + (f" ({n_queries:,.0f})" if n_queries else "")
+                 + f" against a {model.replace('_', ' ')} model, 1-NN, construction excluded", y=0.95)
+    style.legends_in(ax_key, adapter_order(drawn), _classes(results, series, drawn), results)
     return style.save(fig, out_dir, "fig3_hollow_cube_vs_hollow_sphere")
+
+
+def _score(series, key, dists, penalty):
+    """Mean log time over the panel's distances; a skipped cell costs `penalty` seconds."""
+    xs, ys = series_xy(series[key], dists)
+    ys = np.where(np.isnan(ys), penalty, ys)
+    return float(np.mean(np.log(np.maximum(ys, 1e-12))))
+
+
+def best_per_family(results, series):
+    """Per library, its fastest series in this panel (by mean log time); approximate adapters apart."""
+    dists = _panel_distances(series)
+    values = [v for k in series for v in _values(series, [k])]
+    penalty = 2 * max(values) if values else 1.0
+    best = {}
+    for key in series:
+        if not _values(series, [key]):
+            continue
+        group = "approx" if style.is_approximate(key[0], results) else style.family(key[0])
+        score = _score(series, key, dists, penalty)
+        if group not in best or score < best[group][0]:
+            best[group] = (score, key)
+    return {key for _, key in best.values()}
 
 
 def best_keys(results, count=BEST_COUNT):
@@ -97,11 +143,11 @@ def best_keys(results, count=BEST_COUNT):
 
     A skipped or missing cell ranks last; k-NN (recorded once) counts at every distance; brute force is a
     reference and approximate adapters answer another question: neither is ever among the best."""
-    approximate = {name for name, info in results.adapters.items() if info.get("exact") is False}
     ranks = {}
     for model in SHAPES:
         for query in SHAPES:
-            series = {k: v for k, v in sweep_series(results, model, query).items() if k[0] != "brute_force" and k[0] not in approximate}
+            series = {k: v for k, v in sweep_series(results, model, query).items()
+                      if k[0] != "brute_force" and not style.is_approximate(k[0], results)}
             for d in {c.max_dist_m for cells in series.values() for c in cells if c.max_dist_m is not None}:
                 times = {}
                 for key, cells in series.items():
@@ -114,8 +160,24 @@ def best_keys(results, count=BEST_COUNT):
     return sorted(score, key=lambda k: (score[k], k))[:count]
 
 
+def _label_grid(ax, row, col, model, query, ylabel):
+    if row == 0:
+        ax.set_title(f"model: {model.replace('_', ' ')}")
+    if col == 0:
+        ax.set_ylabel(f"query: {query.replace('_', ' ')}\n{ylabel}")
+    if row == 3:
+        ax.set_xlabel("maximal distance (m)")
+
+
+def _row_top(values):
+    """A linear axis top that shows the row's lines rather than its one outlier: 1.15 x the 95th percentile."""
+    if not values:
+        return 1.0
+    return float(f"{1.15 * float(np.percentile(values, 95)):.2g}")
+
+
 def grid(results, out_dir, best):
-    """Figure 6 (every series, log) or 7 (best series, linear) as a 4x4 grid: model x query."""
+    """Figure 6 (each library's fastest series per panel, log) or 7 (best series, linear, one scale per row)."""
     stem = "fig7_grid_best" if best else "fig6_grid_all"
     if not any(c.model in SHAPES and c.query in SHAPES for c in results.sweep):
         warn(f"{stem}: no synthetic sweep cells: figure skipped")
@@ -124,30 +186,35 @@ def grid(results, out_dir, best):
     if best and not keys:
         warn(f"{stem}: no synthetic sweep series besides the brute-force reference: figure skipped")
         return None
-    fig, axes = plt.subplots(4, 4, figsize=(16, 13), sharex=True, sharey=True)
-    lines, values = {}, []
-    for col, model in enumerate(SHAPES):
-        for row, query in enumerate(SHAPES):
-            ax = axes[row][col]
-            lines.update(draw_panel(ax, results, model, query, keys))
-            values += _values(sweep_series(results, model, query), keys or sweep_series(results, model, query))
-            if not sweep_series(results, model, query):
+    fig = plt.figure(figsize=(style.PAGE_WIDTH_IN, 15.5))
+    grid_spec = fig.add_gridspec(5, 4, height_ratios=[1, 1, 1, 1, 0.62], hspace=0.3, wspace=0.22)
+    drawn, classes = set(), set()
+    for row, query in enumerate(SHAPES):
+        row_axes, row_values = [], []
+        for col, model in enumerate(SHAPES):
+            ax = fig.add_subplot(grid_spec[row, col], sharex=row_axes[0] if row_axes else None,
+                                 sharey=row_axes[0] if row_axes else None)
+            row_axes.append(ax)
+            series = sweep_series(results, model, query)
+            chosen = keys if best else best_per_family(results, series)
+            shown = draw_panel(ax, results, model, query, chosen)
+            drawn.update(shown)
+            classes |= _classes(results, series, shown)
+            row_values += _values(series, shown)
+            if not series:
                 ax.text(0.5, 0.5, "no data", transform=ax.transAxes, ha="center", color="grey")
-            if row == 0:
-                ax.set_title(f"model: {model.replace('_', ' ')}", fontsize=11)
-            if col == 0:
-                ax.set_ylabel(f"query: {query.replace('_', ' ')}\ntime (s)", fontsize=11)
-            if row == 3:
-                ax.set_xlabel("max distance (m)")
+            _label_grid(ax, row, col, model, query, "time (s)")
+            if col:
+                ax.tick_params(labelleft=False)
+        if best:
+            row_axes[0].set_ylim(0, _row_top(row_values))
+        else:
+            style.log_y(row_axes[0])
     if best:
-        p90 = float(np.percentile(values, 90)) if values else 1.0
-        top = 1.0 if 0.2 <= p90 <= 1.0 else float(f"{1.1 * p90:.1g}")
-        axes[0][0].set_ylim(0, top)
-        fig.suptitle(f"Best {len(keys)} adapter+kinds (lowest mean rank over all cells), linear 0 to {top:g} s",
-                     fontsize=12)
+        fig.suptitle(f"Figure 7: the {len(keys)} best adapter+kinds over the grid (lowest mean rank), linear; "
+                     "each row has its own time scale", y=0.92)
     else:
-        style.log_y(axes[0][0])
-        fig.suptitle("All adapters, log scale (construction excluded)", fontsize=12)
-    fig.tight_layout()
-    _legend(fig, lines, 3)
+        fig.suptitle("Figure 6: each library's fastest series per panel, log scale; every series is in the "
+                     "interactive report", y=0.92)
+    style.legends_in(fig.add_subplot(grid_spec[4, :]), adapter_order(drawn), classes, results)
     return style.save(fig, out_dir, stem)

@@ -9,6 +9,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import fig_build  # noqa: E402
 import fig_icp  # noqa: E402
 import fig_scale  # noqa: E402
+import fig_speedup  # noqa: E402
 import fig_sweep  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
@@ -18,7 +19,8 @@ from table1 import write_table1  # noqa: E402
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("results", nargs="*", type=Path,
-                        help="results files (default: results/reference/*.json, else results/*.json)")
+                        help="results files, micro_nns.json included (default: results/reference/*.json and its "
+                             "micro_nns/micro_nns.json, else results/*.json)")
     parser.add_argument("--out", type=Path, default=results_io.REPO_ROOT / "results" / "figures",
                         help="output directory (default: results/figures)")
     args = parser.parse_args(argv)
@@ -39,6 +41,7 @@ def main(argv=None):
     fig_sweep.grid(results, args.out, best=False)
     fig_sweep.grid(results, args.out, best=True)
     fig_scale.fig8(results, args.out)
+    fig_speedup.fig9(results, args.out)
     return 0
 
 

@@ -16,7 +16,10 @@ UNIT_SECONDS = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}
 # n_points / n_queries: model and query sizes (record fields, else context.datasets; None when unknown).
 SweepCell = namedtuple("SweepCell", "model query adapter search strategy max_dist_m k seconds skipped found agrees "
                                     "n_points n_queries", defaults=(None, None))
-Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points")
+# file: index into Results.files, so that figures can take each build from one run rather than mix runs.
+Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points file", defaults=(None,))
+# Google Benchmark micro-benchmarks (bench/micro_nns): the fastest repetition's CPU time of one call.
+MicroCell = namedtuple("MicroCell", "pair adapter variant max_dist_m cpu_seconds n_queries")
 IcpRun = namedtuple("IcpRun", "experiment pair adapter search bucket_size icp_seconds build_seconds nns_seconds "
                               "iterations converged")
 
@@ -67,6 +70,8 @@ class Results:
         self.sweep = []      # SweepCell
         self.builds = []     # Build
         self.icp = []        # IcpRun
+        self.micro = []      # MicroCell
+        self.build_skips = {}  # (model, adapter) -> reason the build did not run
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
 
     def adapter_info(self, name):
@@ -123,15 +128,18 @@ def _read_build(results, rec):
     parts = _name_parts(rec)
     model = rec.get("model") or (parts[1] if len(parts) > 1 else None)
     adapter = rec.get("adapter") or (parts[2] if len(parts) > 2 else None)
-    if not (model and adapter) or _skip_reason(rec):
-        warn(f"build record {rec.get('name')!r} skipped or incomplete: ignored")
+    if model and adapter and _skip_reason(rec):
+        results.build_skips[(model, adapter)] = _skip_reason(rec)
+        return
+    if not (model and adapter):
+        warn(f"build record {rec.get('name')!r} incomplete: ignored")
         return
     seconds = record_seconds(rec, "build_seconds")
     if seconds is None:
         warn(f"{rec.get('name')}: no build_seconds: ignored")
         return
     results.builds.append(Build(model, adapter, seconds, _number(rec.get("index_bytes")),
-                                _number(rec.get("n_points"))))
+                                _number(rec.get("n_points")), len(results.files) - 1))
     results._note_adapter(rec)
 
 
@@ -151,8 +159,47 @@ def _read_icp(results, rec, experiment):
     results._note_adapter(rec)
 
 
+def _read_micro(results, rec):
+    """Ranged1NN/<pair>/<adapter[variant]>/<max dist>: keeps each repetition; micro_cells() takes the fastest."""
+    parts = _name_parts(rec)
+    cpu_time, unit = _number(rec.get("cpu_time")), rec.get("time_unit")
+    if len(parts) != 4 or cpu_time is None or unit not in UNIT_SECONDS:
+        return
+    seconds = cpu_time * UNIT_SECONDS[unit]
+    adapter, _, variant = parts[2].partition("[")
+    try:
+        max_dist = float(parts[3])
+    except ValueError:
+        return
+    results.micro.append(MicroCell(parts[1], adapter, variant.rstrip("]") or None, max_dist, seconds, None))
+
+
+def micro_cells(results, variants=False):
+    """{(pair, adapter, max_dist): fastest CPU seconds}, default variants only unless asked."""
+    best = {}
+    for c in results.micro:
+        if c.variant is None or variants:
+            key = (c.pair, c.adapter if c.variant is None else f"{c.adapter}[{c.variant}]", c.max_dist_m)
+            best[key] = min(best.get(key, math.inf), c.cpu_seconds)
+    return best
+
+
+def latest_builds(results):
+    """{(model, adapter): Build} from the newest file that built it (by context date, then reading order)."""
+    dates = [str(ctx.get("date", "")) for _, ctx in results.files]
+    out = {}
+    for b in results.builds:
+        key = (b.model, b.adapter)
+        rank = (dates[b.file] if b.file is not None else "", b.file or 0)
+        if key not in out or rank >= out[key][0]:
+            out[key] = (rank, b)
+    return {k: b for k, (_, b) in out.items()}
+
+
 def _kind(rec):
     name = str(rec.get("name", ""))
+    if name.startswith("Ranged1NN/"):
+        return "micro"
     for prefix in ("sweep", "build", "icp"):
         if name.startswith(prefix + "/"):
             return prefix
@@ -187,9 +234,13 @@ def load(paths):
         for rec in doc["benchmarks"]:
             if not isinstance(rec, dict):
                 continue
+            kind = _kind(rec)
+            if kind == "micro":
+                if rec.get("run_type") != "aggregate":
+                    _read_micro(results, rec)
+                continue
             if rec.get("run_type") == "aggregate" and rec.get("aggregate_name") != "median":
                 continue
-            kind = _kind(rec)
             if kind == "sweep":
                 _read_sweep(results, rec, sizes)
             elif kind == "build":
@@ -219,12 +270,23 @@ def _one_k(cells):
 
 
 def default_inputs():
-    """Reference results if there are any, else every results/*.json."""
+    """Reference results (with the micro-benchmarks) if there are any, else every results/*.json."""
     for pattern in ("results/reference/*.json", "results/*.json"):
         found = sorted(REPO_ROOT.glob(pattern))
+        micro = REPO_ROOT / Path(pattern).parent / "micro_nns" / "micro_nns.json"
+        if found and micro.is_file():
+            found.append(micro)
         if found:
             return found
     return []
+
+
+def display_path(path):
+    """A results file's path relative to the repository when it lies inside, so outputs do not name the clone."""
+    try:
+        return str(Path(path).resolve().relative_to(REPO_ROOT))
+    except ValueError:
+        return str(path)
 
 
 def sweep_series(results, model, query):

@@ -1,4 +1,7 @@
-"""One look for every figure: colour and marker per adapter, line style per search kind, legend labels."""
+"""One look for every figure: colour by library, marker by data structure, line style by strategy.
+
+Approximate adapters are drawn grey with hollow markers and labelled so; figures are at most MAX_WIDTH_PX wide.
+"""
 import zlib
 
 import matplotlib
@@ -6,39 +9,47 @@ import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
+from PIL import Image  # noqa: E402  (matplotlib depends on Pillow)
 
-# Fixed table so an adapter looks the same in every figure and every run.
-ADAPTER_STYLE = {
-    "ours_kdtree": ("#1f77b4", "o"),
-    "ours_octree": ("#ff7f0e", "s"),
-    "nanoflann_kdtree": ("#2ca02c", "^"),
-    "flann_kdtree": ("#d62728", "v"),
-    "ann_kdtree": ("#9467bd", "D"),
-    "cgal_kdtree": ("#8c564b", "P"),
-    "spatialindex_rtree": ("#e377c2", "X"),
-    "spatialindex_rstar": ("#e377c2", "X"),
-    "spatialindex_linear": ("#f7b6d2", "*"),
-    "spatialindex_quadratic": ("#c51b7d", "p"),
-    "pcl_kdtree": ("#bcbd22", "<"),
-    "pcl_octree": ("#17becf", ">"),
-    "pcl_octree_approx": ("#9edae5", ">"),
-    "open3d_kdtree": ("#393b79", "h"),
-    "brute_force": ("#7f7f7f", "."),
+MAX_WIDTH_PX = 1600
+DPI = 110
+PAGE_WIDTH_IN = 14.0  # 1540 px at DPI: room for the tight bounding box
+
+# One colour per library (the prefix of the adapter's name), well apart in hue and lightness.
+LIBRARY_COLOUR = {
+    "ours": "#0b5cad",
+    "nanoflann": "#2ca02c",
+    "open3d": "#e69f00",
+    "flann": "#d62728",
+    "pcl": "#8c564b",
+    "ann": "#9467bd",
+    "cgal": "#e377c2",
+    "spatialindex": "#17a2b8",
+    "brute": "#222222",
 }
-FALLBACK_COLOURS = ("#637939", "#8c6d31", "#843c39", "#7b4173", "#3182bd", "#e6550d", "#31a354", "#756bb1",
-                    "#636363", "#6baed6", "#fd8d3c", "#74c476", "#9e9ac8", "#969696")
-FALLBACK_MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">", "h", "*", "p")
-KIND_LINESTYLE = {"ranged": "-", "radius": "--", "knn": ":"}
+LIBRARY_NAME = {"ours": "ours", "nanoflann": "nanoflann", "open3d": "Open3D", "flann": "FLANN", "pcl": "PCL",
+                "ann": "ANN", "cgal": "CGAL", "spatialindex": "libspatialindex", "brute": "brute force"}
+APPROX_COLOUR = "#8a8a8a"
+FALLBACK_COLOURS = ("#637939", "#8c6d31", "#843c39", "#7b4173", "#3182bd", "#e6550d", "#31a354", "#756bb1")
+# Marker by data structure (the rest of the name), so two structures of one library stay apart.
+STRUCTURE_MARKER = {"kdtree": "o", "octree": "s", "octree_approx": "s", "rstar": "D", "quadratic": "^",
+                    "force": "X"}
+FALLBACK_MARKERS = ("P", "v", "<", ">", "h", "*", "p", "d")
+
+# Line style by how a series is answered: ranged native, ranged emulated, fixed radius, k-NN.
+STRATEGY_LINESTYLE = {"native": "-", "emulated": (0, (5, 2)), "radius": (0, (1.2, 1.6)), "knn": (0, (6, 2, 1.2, 2))}
+STRATEGY_LEGEND = {"native": "ranged, native", "emulated": "ranged, emulated (via k-NN / radius / box)",
+                   "radius": "fixed radius", "knn": "k-NN (flat: no distance limit)"}
 KIND_TEXT = {"ranged": "ranged", "radius": "radius", "knn": "k-NN"}
 STRATEGY_TEXT = {"native": "native", "via_knn": "via k-NN", "via_radius": "via radius", "via_box": "via box"}
 SKIP_MARKER = dict(marker="x", markersize=9, markeredgewidth=2.2, linestyle="none", zorder=5)
 
 
 def setup():
-    """Readable defaults for every figure."""
-    plt.rcParams.update({"font.size": 10, "axes.titlesize": 10, "axes.labelsize": 10, "legend.fontsize": 8,
+    """Fonts of at least 9 pt at the saved size."""
+    plt.rcParams.update({"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10, "legend.fontsize": 9,
                          "xtick.labelsize": 9, "ytick.labelsize": 9, "axes.grid": True, "grid.alpha": 0.3,
-                         "svg.hashsalt": "nnb", "savefig.dpi": 110})
+                         "svg.hashsalt": "nnb", "savefig.dpi": DPI, "figure.titlesize": 12})
 
 
 def log_y(ax):
@@ -48,31 +59,80 @@ def log_y(ax):
                                                                            minor_thresholds=(2, 0.5)))
 
 
-def adapter_style(name):
+def family(adapter):
+    """The library part of an adapter's name: 'pcl' for pcl_octree_approx."""
+    return adapter.split("_", 1)[0]
+
+
+def structure(adapter):
+    return adapter.split("_", 1)[1] if "_" in adapter else adapter
+
+
+def is_approximate(adapter, results=None):
+    """Declared approximate (exact: false), or named so when the results carry no metadata."""
+    info = results.adapter_info(adapter) if results is not None else {}
+    if isinstance(info.get("exact"), bool):
+        return not info["exact"]
+    return "approx" in adapter
+
+
+def adapter_colour(adapter, results=None):
+    if is_approximate(adapter, results):
+        return APPROX_COLOUR
+    if family(adapter) in LIBRARY_COLOUR:
+        return LIBRARY_COLOUR[family(adapter)]
+    return FALLBACK_COLOURS[zlib.crc32(family(adapter).encode()) % len(FALLBACK_COLOURS)]
+
+
+def adapter_marker(adapter):
+    if structure(adapter) in STRUCTURE_MARKER:
+        return STRUCTURE_MARKER[structure(adapter)]
+    return FALLBACK_MARKERS[zlib.crc32(adapter.encode()) % len(FALLBACK_MARKERS)]
+
+
+def adapter_style(adapter, results=None):
     """(colour, marker) for an adapter; unknown names get a fixed choice derived from the name."""
-    if name in ADAPTER_STYLE:
-        return ADAPTER_STYLE[name]
-    if name.startswith("spatialindex_"):
-        return ADAPTER_STYLE["spatialindex_rtree"]
-    h = zlib.crc32(name.encode())
-    return FALLBACK_COLOURS[h % len(FALLBACK_COLOURS)], FALLBACK_MARKERS[(h // 7) % len(FALLBACK_MARKERS)]
+    return adapter_colour(adapter, results), adapter_marker(adapter)
 
 
-def line_kw(adapter, kind):
-    colour, marker = adapter_style(adapter)
-    return dict(color=colour, marker=marker, linestyle=KIND_LINESTYLE.get(kind, "-."), markersize=4,
-                linewidth=1.4)
+def marker_kw(adapter, results=None, size=5):
+    """Marker colour and fill: hollow for approximate adapters."""
+    colour, marker = adapter_style(adapter, results)
+    face = "white" if is_approximate(adapter, results) else colour
+    return dict(color=colour, marker=marker, markersize=size, markerfacecolor=face, markeredgecolor=colour)
+
+
+def strategy_class(kind, strategy):
+    """native / emulated / radius / knn: the four line styles."""
+    if kind in ("radius", "knn"):
+        return kind
+    return "native" if strategy in (None, "native", "?") else "emulated"
+
+
+def line_kw(adapter, kind, strategy=None, results=None):
+    kw = marker_kw(adapter, results, size=4)
+    kw.update(linestyle=STRATEGY_LINESTYLE[strategy_class(kind, strategy)], linewidth=1.5)
+    return kw
 
 
 def library_label(adapter, results):
-    """"FLANN k-d tree", from the adapters' metadata; the registry name is added when it is ambiguous."""
+    """"FLANN k-d tree", from the adapters' metadata; the registry name when it is ambiguous; approximate said."""
     info = results.adapter_info(adapter)
     if not info.get("library"):
-        return adapter
-    text = info["library"] + (" " + info["structure"] if info.get("structure") else "")
-    twins = [a for a, i in results.adapters.items()
-             if a != adapter and i.get("library") == info.get("library") and i.get("structure") == info.get("structure")]
-    return f"{text} ({adapter})" if twins else text
+        text = adapter
+    else:
+        text = info["library"] + (" " + info["structure"] if info.get("structure") else "")
+        twins = [a for a, i in results.adapters.items() if a != adapter and i.get("library") == info.get("library")
+                 and i.get("structure") == info.get("structure")]
+        text = f"{text} ({adapter})" if twins else text
+    if is_approximate(adapter, results) and "approx" not in text:
+        text += " (approximate)"
+    return text
+
+
+def short_label(adapter, results=None):
+    """The registry name, marked when approximate: for crowded axes."""
+    return adapter + (" (approx.)" if is_approximate(adapter, results) and "approx" not in adapter else "")
 
 
 def series_label(adapter, kind, strategy, results):
@@ -83,11 +143,43 @@ def series_label(adapter, kind, strategy, results):
     return f"{library_label(adapter, results)} — {text.strip()}"
 
 
+def adapter_handles(adapters, results):
+    """Legend entries, one per adapter: colour and marker, no line."""
+    return [plt.Line2D([], [], linestyle="none", label=short_label(a, results), **marker_kw(a, results, size=7))
+            for a in adapters]
+
+
+def strategy_handles(classes):
+    """Legend entries, one per line style used."""
+    return [plt.Line2D([], [], color="black", linewidth=1.5, linestyle=STRATEGY_LINESTYLE[c],
+                       label=STRATEGY_LEGEND[c]) for c in STRATEGY_LINESTYLE if c in classes]
+
+
+def skip_handle():
+    return plt.Line2D([], [], color="black", label="last cell before the skipped ones (over budget)",
+                      **SKIP_MARKER)
+
+
+def legends_in(ax, adapters, classes, results, ncol=4, skip=True):
+    """Adapters (colour, marker) and line styles (strategy) as two legends filling an axis of their own."""
+    ax.axis("off")
+    first = ax.legend(handles=adapter_handles(adapters, results), loc="upper left", ncol=ncol, frameon=False,
+                      title="adapter (colour: library, marker: structure)", alignment="left")
+    ax.add_artist(first)
+    extra = strategy_handles(classes) + ([skip_handle()] if skip else [])
+    if extra:
+        ax.legend(handles=extra, loc="upper right", ncol=1, frameon=False, alignment="left",
+                  title="line style: how the search is answered")
+
+
 def save(fig, out_dir, stem):
-    """Writes stem.png and stem.svg; returns the png path."""
+    """Writes stem.png (at most MAX_WIDTH_PX wide) and stem.svg; returns the png path."""
     out_dir.mkdir(parents=True, exist_ok=True)
     png = out_dir / f"{stem}.png"
-    fig.savefig(png, bbox_inches="tight")
+    fig.savefig(png, bbox_inches="tight", dpi=DPI)
+    width = Image.open(png).size[0]
+    if width > MAX_WIDTH_PX:  # a long label widened the tight box: shrink rather than overflow a page
+        fig.savefig(png, bbox_inches="tight", dpi=DPI * MAX_WIDTH_PX / width * 0.99)
     fig.savefig(out_dir / f"{stem}.svg", bbox_inches="tight", metadata={"Date": None})
     plt.close(fig)
     print(f"wrote {png} (+ .svg)")

@@ -1,0 +1,91 @@
+"""Figure 9: speed-up over nanoflann against the maximal distance (ranged 1-NN).
+
+Ratios of two adapters timed in the same run survive a noisy machine better than absolute times."""
+import math
+
+import style
+from results_io import SHAPES, micro_cells, sweep_series, warn
+
+plt = style.plt
+REFERENCE = "nanoflann_kdtree"
+MICRO_TITLES = {"fig3": "Figure 3 pair, micro-benchmark", "sick": "SICK office scan, queries in scan order",
+                "sick_shuffled": "SICK office scan, queries shuffled"}
+
+
+def sweep_ratios(results, model, query):
+    """{adapter: [(max_dist, nanoflann time / adapter time)]} over the ranged series of one combination."""
+    series = {a: cells for (a, kind), cells in sweep_series(results, model, query).items() if kind == "ranged"}
+    if REFERENCE not in series:
+        return {}
+    ref = {c.max_dist_m: c.seconds for c in series[REFERENCE] if c.seconds}
+    out = {}
+    for adapter, cells in series.items():
+        points = [(c.max_dist_m, ref[c.max_dist_m] / c.seconds) for c in cells
+                  if c.seconds and c.max_dist_m in ref and c.max_dist_m > 0]
+        if points and adapter not in (REFERENCE, "brute_force"):
+            out[adapter] = points
+    return out
+
+
+def micro_ratios(results):
+    """{pair: {adapter: [(max_dist, ratio)]}} from the micro-benchmarks (fastest repetition, CPU time)."""
+    cells = micro_cells(results)
+    out = {}
+    for (pair, adapter, d), seconds in sorted(cells.items()):
+        ref = cells.get((pair, REFERENCE, d))
+        if ref and adapter != REFERENCE:
+            out.setdefault(pair, {}).setdefault(adapter, []).append((d, ref / seconds))
+    return out
+
+
+def speedup_panels(results):
+    """[(title, {adapter: points})]: the Figure 3 pair's sweep, real-pair sweeps, then the micro-benchmarks."""
+    panels = []
+    combos = sorted({(c.model, c.query) for c in results.sweep if c.search == "ranged"})
+    wanted = [("hollow_sphere", "hollow_cube")] + [c for c in combos if c[0] not in SHAPES and c[0] == c[1]]
+    for model, query in wanted:
+        ratios = sweep_ratios(results, model, query)
+        if ratios and len({d for pts in ratios.values() for d, _ in pts}) >= 3:
+            title = ("Figure 3 pair, sweep" if model in SHAPES else f"{model}, sweep")
+            panels.append((title, ratios))
+    for pair, ratios in micro_ratios(results).items():
+        panels.append((MICRO_TITLES.get(pair, f"{pair}, micro-benchmark"), ratios))
+    return panels
+
+
+def draw_ratios(ax, results, title, ratios):
+    for adapter in sorted(ratios, key=lambda a: (style.family(a), a)):
+        xs, ys = zip(*sorted(ratios[adapter]))
+        strategy = results.adapter_info(adapter).get("ranged")
+        ax.plot(xs, ys, label=style.short_label(adapter, results), markevery=max(1, len(xs) // 8),
+                **style.line_kw(adapter, "ranged", strategy, results))
+    ax.axhline(1.0, color=style.LIBRARY_COLOUR["nanoflann"], linewidth=2, alpha=0.6)
+    ax.set_yscale("log")
+    ax.yaxis.set_major_formatter(plt.FuncFormatter(lambda y, _: f"{y:g}x"))
+    ax.yaxis.set_minor_formatter(plt.FuncFormatter(lambda y, _: f"{y:g}x" if round(y, 1) in (0.2, 0.5, 2, 5, 20, 50)
+                                                   else ""))
+    ax.set_title(title)
+    ax.set_xlabel("maximal distance (m)")
+    ax.set_ylabel("speed-up over nanoflann (x)")
+
+
+def fig9(results, out_dir):
+    panels = speedup_panels(results)
+    if not panels:
+        warn("fig9: no ranged times of nanoflann beside other adapters: figure skipped")
+        return None
+    cols = min(2, len(panels))
+    rows = math.ceil(len(panels) / cols)
+    fig = plt.figure(figsize=(style.PAGE_WIDTH_IN, 3.6 * rows + 1.6))
+    grid_spec = fig.add_gridspec(rows + 1, cols, height_ratios=[3.6] * rows + [1.3], hspace=0.45, wspace=0.2)
+    adapters, classes = set(), set()
+    for i, (title, ratios) in enumerate(panels):
+        draw_ratios(fig.add_subplot(grid_spec[i // cols, i % cols]), results, title, ratios)
+        adapters |= set(ratios)
+        classes |= {style.strategy_class("ranged", results.adapter_info(a).get("ranged")) for a in ratios}
+    fig.suptitle("Figure 9: speed-up of ranged 1-NN over nanoflann (its time / the adapter's; above 1 = faster)",
+                 y=0.95)
+    style.legends_in(fig.add_subplot(grid_spec[rows, :]), sorted(adapters, key=lambda a: (style.family(a), a)),
+                     classes, results, skip=False)
+    return style.save(fig, out_dir, "fig9_speedup")
+
