@@ -7,6 +7,7 @@
 #include "nnb/datasets/synthetic.hpp"
 #include "real_data.hpp"
 
+#include <limits>
 #include <random>
 
 namespace {
@@ -192,6 +193,21 @@ TEST_P(EdgeCase, AllPointsEqual) {
 TEST_P(EdgeCase, KLargerThanTheModel) {
   const Cloud model = make_shape(Shape::filled_cube, 20, 4);
   expect_same_as_brute_force(model, make_shape(Shape::hollow_sphere, 30, 5), 50, 10.0);
+}
+
+TEST_P(EdgeCase, LargestKIsAnsweredWithoutReservingForIt) {
+  // k = INT_MAX asks for queries x k entries: a library reserving that would need terabytes.
+  const Cloud model = make_shape(Shape::filled_cube, 20, 4);
+  const Cloud queries = make_shape(Shape::hollow_sphere, 1000, 5);
+  auto index = nnb::make_adapter(GetParam());
+  index->build(model);
+  Neighbours got;
+  if (index->info().knn != nnb::Strategy::unsupported) {
+    index->knn(queries, std::numeric_limits<int>::max(), got);
+    EXPECT_EQ(got.total(), 20u * 1000u);
+  }
+  index->ranged(queries, std::numeric_limits<int>::max(), 10.0, got);
+  if (index->info().exact) EXPECT_EQ(got.total(), 20u * 1000u);
 }
 
 TEST_P(EdgeCase, QueryExactlyOnAPoint) {

@@ -400,7 +400,7 @@ def case_files():
     run(["--datasets", str(cloud), "--dists", "0:0.1:0.05", "--adapters", "brute_force", "--out", str(cloud)],
         expect=2)
     check(cloud.read_bytes() == before, "an input file was overwritten")
-    for bad_out in (str(work), "/proc/nnb_results.json"):
+    for bad_out in (str(work), str(cloud / "results.json")):  # a folder, and a path under a file
         proc = run(args + ["--out", bad_out], expect=2)
         check(proc.stderr.count("\n") == 1, f"{bad_out}: not one line: {proc.stderr!r}")
     # a second writer of the same file is refused while the first holds it
