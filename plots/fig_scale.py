@@ -1,4 +1,4 @@
-"""Figure 8 (issue 8, the scale experiment): time per query and build time against the model size, log-log,
+"""Figure 8 (the scale experiment): time per query and build time against the model size, log-log,
 and each adapter's growth exponent (least-squares slope of log time against log n) in scale_exponents.md."""
 import numpy as np
 

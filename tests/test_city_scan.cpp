@@ -1,4 +1,4 @@
-// The simulated city scans (issue 8): every return on the surface its ray hit, determinism, the pair's
+// The simulated city scans: every return on the surface its ray hit, determinism, the pair's
 // known pose, dropped misses and range limits, counts versus angular step, and the catalog entries.
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/datasets/city_scan.hpp"

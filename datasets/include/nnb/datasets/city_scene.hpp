@@ -1,5 +1,5 @@
 #pragma once
-// A synthetic city block for the simulated terrestrial laser scans (issue 8): a 4 x 4 grid of closed
+// A synthetic city block for the simulated terrestrial laser scans: a 4 x 4 grid of closed
 // blocks (raised sidewalk platforms, perimeter buildings with recessed windows) between 10 m roads on
 // gently sloped ground, with street lamps, parked cars and trees. World frame: metres, z up, the centre
 // crossing at the origin. Built from std::mt19937_64 with our own mapping (no std distributions), so a
