@@ -2,7 +2,7 @@
 """Tests of run_sweep, run on tiny synthetic data: test_run_sweep.py RUN_SWEEP CASE WORKDIR.
 
 Cases: fields, resume, budget, bad_input, hostile_values, files, isolation, quick_tiny, agreement, scale_memory,
-scale_budget. Each exits non-zero
+scale_budget, shards. Each exits non-zero
 with a message on failure.
 """
 import json
@@ -477,9 +477,95 @@ def case_isolation():
         check(out.read_bytes() != before, "nothing changed on retry")
 
 
+MERGE = Path(__file__).resolve().parents[1] / "plots" / "merge_results.py"
+SHARD_RUN = ["--points", "300", "--dists", "0:0.3:0.1", "--repetitions", "1",
+             "--adapters", "brute_force,nanoflann_kdtree,ours_kdtree",
+             "--datasets", "hollow_sphere:hollow_cube,filled_cube"]
+
+
+def merge(paths, out, expect):
+    proc = subprocess.run([sys.executable, str(MERGE)] + [str(p) for p in paths] + ["--out", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    check(proc.returncode == expect, f"merge of {[Path(p).name for p in paths]} exited {proc.returncode}, expected "
+                                     f"{expect}:\n{proc.stderr[-2000:]}")
+    return proc
+
+
+def check_plan_balanced():
+    plan = json.loads(run(SHARD_RUN + ["--plan", "--json", "--shard", "1/3"]).stdout)
+    check(plan["shards"] == 3 and len(plan["shard_cost"]) == 3, f"plan shards: {plan['shards']}")
+    check(sum(plan["shard_cells"]) == plan["total_cells"] == sum(u["cells"] for u in plan["units"]),
+          "plan: cells of the shards do not add up to the total")
+    check(len(plan["units"]) == 6 and all(0 <= u["shard"] < 3 for u in plan["units"]), "plan: units or shards")
+    check(len(plan["cells"]) == plan["shard_cells"][1], "plan: the shard's cell names")
+    # longest-first assignment is within 4/3 of the best makespan, itself at least the mean and the largest unit
+    bound = max(sum(plan["shard_cost"]) / 3, max(u["cost"] for u in plan["units"]))
+    check(max(plan["shard_cost"]) <= 4 / 3 * bound + 1e-12, f"unbalanced plan: {plan['shard_cost']}")
+    # brute force, the slow one, is weighted above the trees on the same data
+    cost = {(u["model"], u["adapter"]): u["cost"] for u in plan["units"]}
+    check(cost[("hollow_sphere", "brute_force")] > cost[("hollow_sphere", "ours_kdtree")], "adapter factor")
+    text = run(SHARD_RUN + ["--plan", "--shard", "1/3"]).stdout
+    check("3 shards" in text and "<- this shard" in text and "units of shard 1/3" in text, f"plan text:\n{text}")
+    return plan
+
+
+def case_shards():
+    work = fresh_workdir()
+    plan = check_plan_balanced()
+    check(not list(work.iterdir()), "--plan wrote files")
+    whole = work / "whole.json"
+    run(SHARD_RUN + ["--out", str(whole)])
+    shards = [work / f"s{i}.json" for i in range(3)]
+    for i, path in enumerate(shards):
+        run(SHARD_RUN + ["--shard", f"{i}/3", "--out", str(path)])
+    merged = work / "merged.json"
+    merge(shards, merged, 0)
+    whole_recs, merged_doc = load(whole)["benchmarks"], load(merged)
+    check([r["name"] for r in merged_doc["benchmarks"]] == [r["name"] for r in whole_recs],
+          "merged cells differ from the single run's (or their order)")
+    for a, b in zip(merged_doc["benchmarks"], whole_recs):
+        for field in ("found", "neighbours", "agrees", "checked_against", "skipped"):
+            check(a.get(field) == b.get(field), f"{a['name']}: {field} {a.get(field)!r} != {b.get(field)!r}")
+    check(all(load(p)["context"]["shard"]["units"] == [dict(u) for u in plan["units"]] for p in shards),
+          "every shard carries the whole plan")
+    context = merged_doc["context"]
+    check("shard" not in context and "shard" not in context["config"], "the merged context still names a shard")
+    check(context["config"] == load(whole)["context"]["config"], "merged config differs from the single run's")
+    check([m["shard"] for m in context["merged_from"]] == ["0/3", "1/3", "2/3"], "merged_from")
+    # a shard file refuses a resume as another shard
+    refused = run(SHARD_RUN + ["--shard", "2/3", "--out", str(shards[0]), "--resume"], expect=2)
+    check("configuration" in refused.stderr, f"unclear refusal: {refused.stderr}")
+    # a missing shard is reported by its units, and nothing is written
+    proc = merge(shards[:2], work / "partial.json", 1)
+    check("shard 2/3 missing" in proc.stderr and not (work / "partial.json").exists(), proc.stderr)
+    # a missing cell is reported by name
+    cut = load(shards[1])
+    lost = cut["benchmarks"].pop()["name"]
+    (work / "cut.json").write_text(json.dumps(cut))
+    proc = merge([shards[0], work / "cut.json", shards[2]], work / "partial.json", 1)
+    check(lost in proc.stderr, f"the missing cell is not named: {proc.stderr}")
+    # shards of another configuration are refused
+    other = work / "other.json"
+    other_run = [("2" if arg == "1" else arg) for arg in SHARD_RUN]  # two repetitions instead of one
+    run(other_run + ["--shard", "2/3", "--out", str(other)])
+    proc = merge([shards[0], shards[1], other], work / "mixed.json", 2)
+    check("configuration" in proc.stderr and not (work / "mixed.json").exists(), proc.stderr)
+    merge([shards[0], shards[0], shards[1]], work / "twice.json", 2)
+    # bad --shard values exit 2 and write nothing
+    for bad in ("3/3", "1", "-1/3", "0/0", "a/3", "1/3/4"):
+        run(SHARD_RUN + ["--shard", bad, "--out", str(work / "bad.json")], expect=2)
+    check(not (work / "bad.json").exists(), "a bad --shard wrote a file")
+    # the default results file names its shard
+    (work / "results").mkdir()
+    proc = subprocess.run([os.path.abspath(RUN_SWEEP)] + SHARD_RUN + ["--shard", "0/3"], cwd=work,
+                          capture_output=True, text=True, timeout=300)
+    check(proc.returncode == 0 and (work / "results" / "sweep_quick.shard-0-of-3.json").exists(),
+          f"default shard file: {proc.stderr[-1000:]}")
+
+
 CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
          "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
-         "scale_budget": case_scale_budget}
+         "scale_budget": case_scale_budget, "shards": case_shards}
 
 if __name__ == "__main__":
     CASES[CASE]()
