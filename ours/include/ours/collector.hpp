@@ -1,6 +1,7 @@
 #pragma once
 // What the k-d tree and the octree share: candidates, the k-best collectors (a linear heap for small
-// k, a binary heap for large k, as libnabo), and the error model that makes a float search safe.
+// k, a binary heap for large k, as libnabo), the error model that makes a float search safe, and the
+// per-caller buffers (one SearchBuffers serves either tree, so it also holds the k-d tree's stack).
 //
 // Exactness. Both trees compute distances in their scalar T. With T = double and no origin shift the
 // distance of a point is computed exactly as nnb::sq_dist_m2, so the answer is the exact answer. With
@@ -149,7 +150,8 @@ constexpr int kLinearHeapMaxK = 30;
 
 /// The float error model. For float coordinates stored relative to an origin, with the query's largest
 /// coordinate magnitude m (metres, relative to that origin), |float sq_dist - exact sq_dist| stays
-/// below about 21 u (m^2 + d) with u = 2^-24; slack() returns three times the bound that is needed.
+/// below about 21 u (m^2 + d) with u = 2^-24; slack() allows 128 u, about six times that bound, since the
+/// bound itself is a first-order estimate.
 template <typename T>
 struct ErrorModel {
   static constexpr bool kConservative = std::is_same_v<T, float>;
@@ -165,7 +167,9 @@ struct ErrorModel {
   }
 };
 
-/// Relative safety factor on incrementally updated cell bounds (rounding over `steps` updates).
+/// Relative safety factor on incrementally updated cell bounds. Each of the `steps` updates of a cell's
+/// squared distance (a subtraction, a square and an add: about 3 u of relative error) is allowed 8 u, and
+/// 8 steps more cover the first sum; a pruning test against bound * shrink is then never wrong.
 template <typename T>
 inline T bound_shrink(int steps) {
   const double u = std::is_same_v<T, float> ? 5.9604645e-8 : 1.1102230246251565e-16;

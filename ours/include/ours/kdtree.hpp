@@ -197,8 +197,6 @@ class KdTree {
   /// Returns the origin (metres): the centre of the bounding box; cuts (and float coordinates) are
   /// stored relative to it.
   const std::array<double, 3>& origin() const { return origin_; }
-  /// Returns the depth of the deepest leaf (root = 0).
-  std::uint32_t max_depth() const { return max_depth_; }
   /// Returns bytes of the nodes.
   std::size_t node_bytes() const { return nodes_.size() * sizeof(Node); }
   /// Returns bytes of the bucket index array.
@@ -461,11 +459,7 @@ class KdTree {
     }
   }
 
-  // Algorithm 3 without recursion, after the first descent: scan the leaf, pop the next pending cell
-  // still within the bound, descend from it (pushing each far child with its offsets, per-axis distance
-  // parts, and their squared norm), repeat. The pushes are branch-free: written always, kept when
-  // within the bound. shrink_ absorbs the rounding of the incremental update, so no point at the bound
-  // is lost.
+  // The rest of Algorithm 3 once the first descent reached its leaf: scan that leaf, then the pending cells.
   template <class Collect>
   void search_from(const Query& q, Collect& collect, std::uint32_t leaf, PendingCell<T>* const bottom,
                    PendingCell<T>* top) const {
@@ -473,6 +467,10 @@ class KdTree {
     search_pending(q, collect, bottom, top);
   }
 
+  // Algorithm 3 without recursion: pop the next pending cell still within the bound, descend from it
+  // (pushing each far child with its offsets, per-axis distance parts, and their squared norm), scan
+  // the leaf, repeat. The pushes are branch-free: written always, kept when within the bound. shrink_
+  // absorbs the rounding of the incremental update, so no point at the bound is lost.
   template <class Collect>
   void search_pending(const Query& q, Collect& collect, PendingCell<T>* const bottom, PendingCell<T>* top) const {
     for (;;) {
