@@ -8,7 +8,7 @@ PACKAGES=(
   libeigen3-dev libnanoflann-dev libflann-dev libann-dev libspatialindex-dev
   libcgal-dev libpcl-dev libopen3d-dev libtbb-dev nlohmann-json3-dev
   libbenchmark-dev libgtest-dev libcli11-dev
-  python3 python3-matplotlib python3-numpy
+  python3 python3-matplotlib python3-numpy python3-plotly chromium
 )
 
 missing=()

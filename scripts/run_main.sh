@@ -18,4 +18,6 @@ build/release/bench/run_sweep --experiment "${experiment}" --out "${out}" "${res
 
 /usr/bin/python3 plots/make_figures.py "${out}" --out "results/figures/${experiment}"
 /usr/bin/python3 plots/findings.py "${out}" --out "results/figures/${experiment}/FINDINGS.md"
+/usr/bin/python3 plots/report.py "${out}" --out "results/figures/${experiment}"
 echo "main: results in ${out}, figures and findings in results/figures/${experiment}/"
+echo "main: interactive report: results/figures/${experiment}/report.html"

@@ -1,0 +1,170 @@
+#!/usr/bin/env python3
+"""The README's data tables, made from the results files: python3 plots/readme_tables.py --check | --write.
+
+Each table sits between `<!-- generated: NAME -->` and `<!-- end -->` in README.md; --write replaces the
+blocks, --check exits 1 (and prints what differs) when the README's copy is not what the results give."""
+import argparse
+import difflib
+import re
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import fig_icp  # noqa: E402
+import fig_scale  # noqa: E402
+import findings  # noqa: E402
+import results_io  # noqa: E402
+import style  # noqa: E402
+from table1 import STRATEGY_CELL  # noqa: E402
+
+README = results_io.REPO_ROOT / "README.md"
+BLOCK = re.compile(r"(<!-- generated: (?P<name>[a-z0-9_]+) -->\n)(?P<body>.*?)(<!-- end -->)", re.S)
+MICRO_TARGETS = (("ours_kdtree", "nanoflann_kdtree", 1.5, "kdtree"), ("ours_octree", "pcl_octree", 2.0, "octree"))
+MICRO_PAIRS = {"fig3": "Figure 3 (hollow cube -> hollow sphere)", "sick": "SICK office, queries in scan order",
+               "sick_shuffled": "SICK office, queries shuffled (no target)"}
+
+
+def _params(params):
+    return ", ".join(f"{k}={v}" for k, v in sorted((params or {}).items()))
+
+
+def table1_lines(results):
+    lines = ["| adapter | library | version | data structure | precision | k-NN | fixed radius | ranged | exact | parameters |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for name in sorted(results.adapters):
+        i = results.adapters[name]
+        kinds = [STRATEGY_CELL.get(i.get(k), "no" if i.get(k) == "unsupported" else str(i.get(k, "?")))
+                 for k in ("knn", "radius", "ranged")]
+        exact = "yes" if i.get("exact") is not False else "**no (approximate)**"
+        cells = [name, i.get("library", "?"), str(i.get("version", "?")), i.get("structure", "?"),
+                 i.get("scalar", "?"), *kinds, exact, _params(i.get("params"))]
+        lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |")
+    return lines
+
+
+def icp_lines(results, shown=3):
+    """Per real pair: the fastest exact adapters' ICP times and the winner's speed-up over nanoflann."""
+    lines = ["| pair | fastest | second | third | nanoflann | fastest vs nanoflann |", "|---|---|---|---|---|---|"]
+    for pair, times in sorted(fig_icp.real_times(results).items()):
+        ranked, _ = fig_icp.ranked_pair(results, times)
+        cells = [f"{k[0]} {times[k][0]:.2f} s" + ("" if times[k][1] is not False else " (not converged)")
+                 for k in ranked[:shown]]
+        cells += ["-"] * (shown - len(cells))
+        ref = fig_icp.nanoflann_seconds(times)
+        ratio = f"{ref / times[ranked[0]][0]:.2f}x" if ref and ranked else "-"
+        lines.append(f"| {pair} | " + " | ".join(cells) + f" | {ref:.2f} s | {ratio} |" if ref else
+                     f"| {pair} | " + " | ".join(cells) + " | - | - |")
+    return lines
+
+
+def micro_lines(results):
+    cells = results_io.micro_cells(results)
+    lines = ["| pair | max dist (m) | ours_kdtree vs nanoflann (target >= 1.5x; >= 1x at 1 m) | "
+             "ours_octree vs PCL octree (>= 2x) | octree time / k-d tree time (<= 1.3) |", "|---|---|---|---|---|"]
+    for pair in [p for p in MICRO_PAIRS if any(k[0] == p for k in cells)]:
+        for n, d in enumerate(sorted({k[2] for k in cells if k[0] == pair})):
+            got = lambda a: cells.get((pair, a, d))  # noqa: E731
+            ratios = []
+            for ours, other, target, _ in MICRO_TARGETS:
+                goal = 1.0 if ours == "ours_kdtree" and d >= 1.0 else target
+                r = got(other) / got(ours) if got(other) and got(ours) else None
+                ratios.append("-" if r is None else f"{r:.2f}x" + ("" if r >= goal or "shuffled" in pair else " (missed)"))
+            k, o = got("ours_kdtree"), got("ours_octree")
+            ratios.append("-" if not (k and o) else f"{o / k:.2f}")
+            lines.append(f"| {MICRO_PAIRS[pair] if n == 0 else ''} | {d:.2f} | " + " | ".join(ratios) + " |")
+    return lines
+
+
+def micro_times_lines(results):
+    cells = results_io.micro_cells(results)
+    dists = sorted({k[2] for k in cells})
+    lines = ["| pair | adapter | " + " | ".join(f"{d:g} m" for d in dists) + " |", "|---|---|" + "---|" * len(dists)]
+    for pair in [p for p in MICRO_PAIRS if any(k[0] == p for k in cells)]:
+        for adapter in sorted({k[1] for k in cells if k[0] == pair}, key=lambda a: cells.get((pair, a, dists[0]), 1)):
+            lines.append(f"| {pair} | {adapter} | " + " | ".join(
+                f"{cells[(pair, adapter, d)] * 1e3:.3g} ms" if (pair, adapter, d) in cells else "-" for d in dists) + " |")
+    return lines
+
+
+def scale_lines(results):
+    key, table = fig_scale.scale_table(results)
+    lines = ["| adapter | sizes run | largest n | query time exponent | build time exponent | µs per query | "
+             "build s | index B per point | stopped at |", "|---|---|---|---|---|---|---|---|---|"]
+    if key is None:
+        return lines
+    rows = []
+    for adapter, row in table.items():
+        ran = row["query"]
+        if not ran:
+            continue
+        q = fig_scale.growth_exponent(*zip(*ran)) if len(ran) >= 2 else None
+        b = fig_scale.growth_exponent(*zip(*row["build"])) if len(row["build"]) >= 2 else None
+        n = ran[-1][0]
+        build = dict(row["build"]).get(n)
+        memory = dict(row.get("memory", [])).get(n)
+        stopped = f"{row['stopped'][0]:,} points" if row["stopped"] else "-"
+        rows.append((ran[-1][1] if len(ran) == len(fig_scale_sizes(table)) else 1e9, adapter,
+                     f"| {style.short_label(adapter, results)} | {len(ran)} | {n:,} | {fig_scale._fmt(q)} | "
+                     f"{fig_scale._fmt(b)} | {ran[-1][1] * 1e6:.3g} | {fig_scale._sig(build)} | "
+                     f"{fig_scale._sig(memory)} | {stopped} |"))
+    return lines + [r for _, _, r in sorted(rows)]
+
+
+def fig_scale_sizes(table):
+    return {n for row in table.values() for n, _ in row["query"]}
+
+
+def findings_lines(results):
+    lines = ["| # | the paper's claim | on these results |", "|---|---|---|"]
+    return lines + [f"| {v.number} | {v.claim} | **{v.verdict}** |" for v in findings.evaluate(results, 0.1)]
+
+
+TABLES = {"table1": table1_lines, "icp_ranking": icp_lines, "micro_nns": micro_lines,
+          "micro_nns_times": micro_times_lines, "scale": scale_lines, "findings": findings_lines}
+
+
+def generate(results, name):
+    return "\n".join(TABLES[name](results)) + "\n"
+
+
+def refresh(text, results):
+    """The README text with every generated block remade; unknown block names are an error."""
+    def replace(match):
+        if match.group("name") not in TABLES:
+            raise SystemExit(f"readme_tables: unknown block {match.group('name')!r}")
+        return match.group(1) + generate(results, match.group("name")) + match.group(4)
+    return BLOCK.sub(replace, text)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    mode = parser.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--check", action="store_true", help="exit 1 when README.md differs from the results")
+    mode.add_argument("--write", action="store_true", help="rewrite the generated blocks of README.md")
+    mode.add_argument("--print", metavar="NAME", choices=sorted(TABLES), help="print one table")
+    parser.add_argument("--readme", type=Path, default=README)
+    parser.add_argument("results", nargs="*", type=Path, help="results files (default: as make_figures.py)")
+    args = parser.parse_args(argv)
+    results = results_io.load(args.results or results_io.default_inputs())
+    if args.print:
+        print(generate(results, args.print), end="")
+        return 0
+    text = args.readme.read_text()
+    new = refresh(text, results)
+    if args.write:
+        args.readme.write_text(new)
+        print(f"readme_tables: {len(BLOCK.findall(new))} blocks written in {args.readme}")
+        return 0
+    if new != text:
+        sys.stdout.writelines(difflib.unified_diff(text.splitlines(True), new.splitlines(True),
+                                                   str(args.readme), "from the results"))
+        print(f"readme_tables: {args.readme} differs from the results: run plots/readme_tables.py --write",
+              file=sys.stderr)
+        return 1
+    print(f"readme_tables: {len(BLOCK.findall(text))} blocks match the results")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,90 @@
+"""What makes the figures readable: page width, approximate adapters never ranked, clouds in size order."""
+import subprocess
+import sys
+import tempfile
+import unittest
+from pathlib import Path
+
+import fixtures  # first: puts plots/ on the path
+import fig_build  # noqa: E402
+import fig_icp  # noqa: E402
+import fig_sweep  # noqa: E402
+import readme_tables  # noqa: E402
+import results_io  # noqa: E402
+import style  # noqa: E402
+from PIL import Image  # noqa: E402
+
+SCRIPT = fixtures.PLOTS_DIR / "make_figures.py"
+
+
+class FigureRulesTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.dir = Path(cls.tmp.name)
+        cls.files = fixtures.write_all(cls.dir) + [fixtures.approx_file(cls.dir / "approx.json"),
+                                                   fixtures.write(cls.dir / "scale.json", "scale",
+                                                                  fixtures.scale_records())]
+        cls.results = results_io.load(cls.files)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_every_png_fits_a_page(self):
+        out = self.dir / "figures"
+        proc = subprocess.run([sys.executable, str(SCRIPT), *map(str, self.files), "--out", str(out)],
+                              capture_output=True, text=True, timeout=600)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        pngs = sorted(out.glob("*.png"))
+        self.assertGreaterEqual(len(pngs), 8)
+        for png in pngs:
+            self.assertLessEqual(Image.open(png).size[0], style.MAX_WIDTH_PX, png.name)
+
+    def test_approximate_adapter_is_never_among_the_fastest(self):
+        r = self.results
+        self.assertTrue(style.is_approximate(fixtures.APPROX, r))
+        series = results_io.sweep_series(r, *fig_sweep.FIG3)
+        self.assertIn((fixtures.APPROX, "ranged"), series)  # it is the fastest series drawn
+        self.assertNotIn(fixtures.APPROX, [k[0] for k in fig_sweep.fastest_exact(r, series, 3)])
+        self.assertNotIn(fixtures.APPROX, [k[0] for k in fig_sweep.best_keys(r)])
+        for pair, times in fig_icp.real_times(r).items():
+            ranked, approximate = fig_icp.ranked_pair(r, times)
+            self.assertNotIn(fixtures.APPROX, [k[0] for k in ranked], pair)
+            self.assertIn(fixtures.APPROX, [k[0] for k in approximate], pair)
+        self.assertNotIn(fixtures.APPROX, "\n".join(readme_tables.icp_lines(r)))
+
+    def test_approximate_adapter_is_drawn_grey_and_hollow(self):
+        kw = style.marker_kw(fixtures.APPROX, self.results)
+        self.assertEqual(kw["color"], style.APPROX_COLOUR)
+        self.assertEqual(kw["markerfacecolor"], "white")
+        self.assertIn("approx", style.library_label(fixtures.APPROX, self.results))
+
+    def test_strategies_have_four_distinct_line_styles(self):
+        kinds = [("ranged", "native"), ("ranged", "via_knn"), ("radius", "native"), ("knn", "native")]
+        styles = [repr(style.line_kw("ours_kdtree", k, s)["linestyle"]) for k, s in kinds]
+        self.assertEqual(len(set(styles)), 4)
+
+    def test_libraries_get_distinct_colours(self):
+        colours = {style.adapter_colour(a, self.results) for a in fixtures.ADAPTERS if a != fixtures.APPROX}
+        families = {style.family(a) for a in fixtures.ADAPTERS if a != fixtures.APPROX}
+        self.assertEqual(len(colours), len(families))
+
+    def test_clouds_in_size_order(self):
+        names = ["city-15k", "city-16m", "city-1m", "city-250k", "city-4m", "city-60k", "hollow_cube"]
+        sizes = {"city-15k": 15e3, "city-60k": 6e4, "city-250k": 2.5e5, "city-1m": 1e6, "city-4m": 4e6, "city-16m": 1.6e7,
+                 "hollow_cube": 6e4}
+        r = results_io.Results()
+        r.builds = [results_io.Build(m, "ours_kdtree", 1.0, None, sizes[m], 0) for m in names]
+        self.assertEqual(fig_build.model_order(r, names),
+                         ["hollow_cube", "city-15k", "city-60k", "city-250k", "city-1m", "city-4m", "city-16m"])
+
+    def test_builds_come_from_the_newest_run(self):
+        r = results_io.Results()
+        r.files = [("old.json", {"date": "2024-01-01"}), ("new.json", {"date": "2025-01-01"})]
+        r.builds = [results_io.Build("m", "a", 5.0, None, 10, 1), results_io.Build("m", "a", 1.0, None, 10, 0)]
+        self.assertEqual(fig_build.build_table(r), {("m", "a"): 5.0})
+
+
+if __name__ == "__main__":
+    unittest.main()
