@@ -47,7 +47,10 @@ class OutputsTest(unittest.TestCase):
         proc = run("report.py", *files, "--out", self.dir / "report")
         self.assertEqual(proc.returncode, 0, proc.stderr)
         page = (self.dir / "report" / "report.html").read_text()
-        self.assertFalse("<script src" in page or "<link" in page, "the page loads something from elsewhere")
+        import report
+        self.assertIn(report.plotly_js(), page)
+        own = page.replace(report.plotly_js(), "")
+        self.assertFalse("<script src" in own or "<link" in own or "http" in own, "the page loads from elsewhere")
         for section in ('id="table1"', 'id="findings"', 'id="machine"', "id='adapter-ours_kdtree'", "Plotly.newPlot"):
             self.assertTrue(section in page, section)
         self.assertGreater(page.count("class=plot"), 5)
