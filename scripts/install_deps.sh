@@ -9,6 +9,7 @@ PACKAGES=(
   libcgal-dev libpcl-dev libopen3d-dev libtbb-dev nlohmann-json3-dev
   libbenchmark-dev libgtest-dev libcli11-dev
   python3 python3-matplotlib python3-numpy python3-plotly chromium
+  slurm-wlm munge
 )
 
 missing=()

@@ -1,0 +1,260 @@
+#!/usr/bin/env bash
+# A real Slurm on this machine: starts munged, slurmctld and slurmd (Debian's slurm-wlm and munge) with a
+# private configuration, key, ports and state; submits a small sweep with scripts/slurm/submit.sh as a job
+# array of 4 shards; cancels the shard holding brute force mid-run and resubmits it, which must resume its
+# file; checks the merged file has exactly the cells of a single-process run, with the same found counts.
+# Every daemon it started is stopped and its state removed on exit, also when it fails.
+#
+#   tests/slurm/test_slurm.sh RUN_SWEEP WORKDIR        (as root, or with passwordless sudo)
+set -euo pipefail
+
+if [ "$(id -u)" -ne 0 ]; then
+  if sudo -n true 2>/dev/null; then exec sudo -n -E "$0" "$@"; fi
+  echo "test_slurm: FAIL: must run as root (or with passwordless sudo): it starts munged, slurmctld and slurmd" >&2
+  exit 1
+fi
+[ $# -eq 2 ] || { echo "usage: $0 RUN_SWEEP WORKDIR" >&2; exit 2; }
+
+repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+run_sweep=$(realpath "$1")
+build=$(dirname "$(dirname "${run_sweep}")")
+work=$(realpath -m "$2")
+state="${work}/state"   # daemons' configuration, key, sockets, spool and logs: removed on exit
+results="${work}/results"
+shards=4
+pids=()       # slurmctld and slurmd
+munge_pid=""
+
+fail() {
+  echo "test_slurm: FAIL: $*" >&2
+  exit 1
+}
+for tool in munged slurmctld slurmd sbatch squeue scancel sinfo; do
+  command -v "${tool}" >/dev/null || [ -x "/usr/sbin/${tool}" ] ||
+    fail "${tool} not found: install slurm-wlm and munge (scripts/install_deps.sh)"
+done
+
+show_logs() {
+  for log in "${state}"/*.log "${state}"/munge/*.log "${results}"/logs/*.log; do
+    [ -f "${log}" ] && { echo "--- ${log}"; tail -n 20 "${log}"; }
+  done
+}
+
+# Stops by PID, SIGTERM then SIGKILL after 5 s.
+stop_pid() {
+  local pid=$1
+  kill -TERM "${pid}" 2>/dev/null || return 0
+  for _ in $(seq 50); do kill -0 "${pid}" 2>/dev/null || return 0; sleep 0.1; done
+  kill -KILL "${pid}" 2>/dev/null || true
+}
+
+# Processes of our jobs carry our SLURM_CONF in their environment: found by it, not by a name.
+stop_job_processes() {
+  local environ pid
+  for environ in /proc/[0-9]*/environ; do
+    pid=${environ#/proc/}
+    pid=${pid%/environ}
+    [ "${pid}" = $$ ] || [[ " ${pids[*]} " == *" ${pid} "* ]] && continue
+    { tr '\0' '\n' < "${environ}"; } 2>/dev/null | grep -qx "SLURM_CONF=${state}/slurm.conf" && stop_pid "${pid}"
+  done
+  return 0
+}
+
+cleanup() {
+  local status=$?
+  trap - EXIT
+  if [ -f "${state}/slurm.conf" ]; then
+    scancel --full --quiet --user root 2>/dev/null || true
+    for _ in $(seq 50); do [ -z "$(squeue -h 2>/dev/null)" ] && break; sleep 0.1; done
+    stop_job_processes
+  fi
+  [ "${status}" -ne 0 ] && show_logs
+  local pid
+  for pid in "${pids[@]}"; do stop_pid "${pid}"; done  # slurmctld, slurmd, then munged
+  [ -n "${munge_pid}" ] && stop_pid "${munge_pid}"
+  [ -f "${state}/munge/munged.pid" ] && stop_pid "$(cat "${state}/munge/munged.pid")"
+  rm -rf "${state}"
+  [ "${status}" -eq 0 ] && rm -rf "${work}"
+  exit "${status}"
+}
+trap cleanup EXIT
+trap 'exit 130' INT TERM
+
+# Waits until COMMAND prints nothing (e.g. squeue of a finished job); fails after SECONDS.
+wait_empty() {
+  local seconds=$1 what=$2
+  shift 2
+  local deadline=$((SECONDS + seconds))
+  while [ -n "$("$@" 2>/dev/null)" ]; do
+    [ ${SECONDS} -lt ${deadline} ] || { squeue; fail "${what}: not done after ${seconds} s"; }
+    sleep 0.2
+  done
+}
+
+start_munge() {
+  install -d -o munge -g munge -m 0755 "${state}/munge"
+  head -c 1024 /dev/urandom > "${state}/munge/munge.key"
+  chown munge:munge "${state}/munge/munge.key"
+  chmod 0400 "${state}/munge/munge.key"
+  setsid runuser -u munge -- /usr/sbin/munged -F --socket="${state}/munge/munge.socket" \
+    --key-file="${state}/munge/munge.key" --pid-file="${state}/munge/munged.pid" --log-file="${state}/munge/munged.log" \
+    --seed-file="${state}/munge/munged.seed" &
+  munge_pid=$!
+  for _ in $(seq 50); do munge -n --socket="${state}/munge/munge.socket" 2>/dev/null |
+    unmunge --socket="${state}/munge/munge.socket" >/dev/null 2>&1 && return 0; sleep 0.1; done
+  fail "munged did not answer"
+}
+
+write_slurm_conf() {
+  local node cpus memory
+  node=$(hostname -s)
+  cpus=$(slurmd -C | sed -n 's/.*CPUs=\([0-9]*\).*/\1/p' | head -n 1)
+  memory=$(slurmd -C | sed -n 's/.*RealMemory=\([0-9]*\).*/\1/p' | head -n 1)
+  [ "${memory}" -gt 2000 ] && memory=2000
+  mkdir -p "${state}/ctld" "${state}/spool"
+  cat > "${state}/slurm.conf" <<EOF
+ClusterName=nnbtest
+SlurmctldHost=localhost
+SlurmUser=root
+AuthType=auth/munge
+AuthInfo=socket=${state}/munge/munge.socket
+SlurmctldPort=16817
+SlurmdPort=16818
+StateSaveLocation=${state}/ctld
+SlurmdSpoolDir=${state}/spool
+SlurmctldPidFile=${state}/slurmctld.pid
+SlurmdPidFile=${state}/slurmd.pid
+SlurmctldLogFile=${state}/slurmctld.log
+SlurmdLogFile=${state}/slurmd.log
+SelectType=select/cons_tres
+SelectTypeParameters=CR_Core
+ProctrackType=proctrack/linuxproc
+TaskPlugin=task/none
+JobAcctGatherType=jobacct_gather/none
+AccountingStorageType=accounting_storage/none
+MpiDefault=none
+MailProg=/bin/true
+ReturnToService=2
+KillWait=5
+SchedulerParameters=sched_interval=1
+NodeName=${node} CPUs=${cpus} RealMemory=${memory} State=UNKNOWN
+PartitionName=debug Nodes=${node} Default=YES MaxTime=INFINITE State=UP
+EOF
+  export SLURM_CONF="${state}/slurm.conf"
+}
+
+start_slurm() {
+  setsid slurmctld -D -f "${SLURM_CONF}" &
+  pids+=($!)
+  setsid slurmd -D -f "${SLURM_CONF}" &
+  pids+=($!)
+  local deadline=$((SECONDS + 30))
+  until sinfo -h -o %T 2>/dev/null | grep -qx idle; do
+    [ ${SECONDS} -lt ${deadline} ] || fail "the node did not become idle: $(sinfo 2>&1)"
+    sleep 0.2
+  done
+}
+
+# A small sweep, slow enough in brute force (many repetitions) to be cancelled mid-run.
+write_experiment() {
+  cat > "${work}/slurm_test.json" <<'EOF'
+{
+  "name": "slurm_test",
+  "description": "Test of the Slurm job array: three adapters, two pairs, small clouds, many repetitions.",
+  "pairs": [{"model": "hollow_sphere", "query": "hollow_cube"}, {"model": "filled_cube", "query": "filled_cube"}],
+  "adapters": ["brute_force", "nanoflann_kdtree", "ours_kdtree"],
+  "searches": ["ranged", "knn", "radius"],
+  "k": [1],
+  "dists": "0:0.3:0.1",
+  "repetitions": 60,
+  "build_repetitions": 1,
+  "budget_seconds": 10,
+  "max_cell_seconds": 0,
+  "neighbour_budget": 5000000,
+  "synthetic_points": 2000,
+  "seed": 1
+}
+EOF
+}
+
+json_count() {  # number of records in a results file (0 when absent or half written)
+  python3 -c 'import json,sys
+try: print(len(json.load(open(sys.argv[1]))["benchmarks"]))
+except Exception: print(0)' "$1"
+}
+
+submit() {
+  "${repo}/scripts/slurm/submit.sh" "${work}/slurm_test.json" "${shards}" --mem 400M --time 10 \
+    --out-dir "${results}" --build "${build}" "$@" > "${work}/submit.out"
+  sed -n 's/^array=//p' "${work}/submit.out"
+}
+
+rm -rf "${work}"
+mkdir -p "${state}" "${results}"
+write_experiment
+experiment="${work}/slurm_test.json"
+
+echo "test_slurm: single-process run"
+"${run_sweep}" --experiment "${experiment}" --out "${work}/whole.json" 2> "${work}/whole.log" ||
+  fail "the single-process run failed: $(tail -n 5 "${work}/whole.log")"
+
+# The shard holding brute force on the first model is the one cancelled.
+victim=$("${run_sweep}" --experiment "${experiment}" --plan --json --shard "0/${shards}" |
+  python3 -c 'import json,sys
+print(next(u["shard"] for u in json.load(sys.stdin)["units"] if u["adapter"] == "brute_force"))')
+victim_file="${results}/sweep_slurm_test.shard-${victim}-of-${shards}.json"
+
+echo "test_slurm: starting munged, slurmctld, slurmd"
+start_munge
+write_slurm_conf
+start_slurm
+
+echo "test_slurm: submitting ${shards} shards"
+array=$(submit)
+[ -n "${array}" ] || fail "submit.sh printed no job id: $(cat "${work}/submit.out")"
+
+deadline=$((SECONDS + 60))
+until [ "$(json_count "${victim_file}")" -ge 2 ]; do
+  [ ${SECONDS} -lt ${deadline} ] || fail "shard ${victim} recorded nothing in 60 s"
+  sleep 0.1
+done
+scancel "${array}_${victim}"
+wait_empty 60 "cancelled shard ${victim}" squeue -h -j "${array}_${victim}"
+cp "${victim_file}" "${work}/partial.json"
+partial=$(json_count "${work}/partial.json")
+wanted=$("${run_sweep}" --experiment "${experiment}" --plan --json --shard "${victim}/${shards}" |
+  python3 -c 'import json,sys; print(len(json.load(sys.stdin)["cells"]))')
+echo "test_slurm: shard ${victim} cancelled with ${partial} of ${wanted} cells recorded"
+[ "${partial}" -lt "${wanted}" ] || fail "shard ${victim} finished before it was cancelled (make it slower)"
+wait_empty 120 "job array ${array}" squeue -h -j "${array}"
+
+echo "test_slurm: resubmitting shard ${victim}"
+again=$(submit --array "${victim}")
+wait_empty 120 "resubmitted shard ${victim}" squeue -h -j "${again}"
+wait_empty 60 "merge jobs" squeue -h
+grep -q "merge.sbatch: done" "${results}"/logs/nnb-slurm_test-merge-*.log || fail "no merge job finished"
+[ -s "${results}/figures/slurm_test/FINDINGS.md" ] || fail "the merge job made no findings"
+
+python3 - "${work}" "${victim_file}" "${results}/sweep_slurm_test.json" <<'EOF' || fail "results differ (above)"
+import json, sys
+work, victim, merged = sys.argv[1:]
+load = lambda p: json.load(open(p))
+whole, partial, resumed, merged = load(f"{work}/whole.json"), load(f"{work}/partial.json"), load(victim), load(merged)
+problems = []
+kept = {r["name"]: r for r in resumed["benchmarks"]}
+problems += [f"{r['name']}: redone or changed on resume" for r in partial["benchmarks"] if kept.get(r["name"]) != r]
+if len(resumed["context"].get("resumed", [])) != 1:
+    problems.append("the resubmitted shard did not resume its file")
+names = lambda doc: [r["name"] for r in doc["benchmarks"]]
+if names(merged) != names(whole):
+    problems.append(f"merged cells differ from the single run's: {sorted(set(names(merged)) ^ set(names(whole)))[:10]}")
+found = {r["name"]: r.get("found") for r in whole["benchmarks"]}
+problems += [f"{r['name']}: found {r.get('found')} != {found.get(r['name'])}" for r in merged["benchmarks"]
+             if r.get("found") != found.get(r["name"])]
+if [m["shard"] for m in merged["context"]["merged_from"]] != [f"{i}/4" for i in range(4)]:
+    problems.append("merged_from does not list the 4 shards")
+for p in problems[:20]:
+    print("  " + p, file=sys.stderr)
+sys.exit(1 if problems else 0)
+EOF
+echo "test_slurm: ok: ${shards} shards under Slurm merged to the single run's cells; the cancelled shard resumed"
