@@ -235,8 +235,8 @@ void print_memory() {
   const std::vector<std::string> built = nnb::adapter_names();
   if (std::find(built.begin(), built.end(), "ours_kdtree") == built.end()) return;  // ours not built in
   // The adapters' defaults (double scalar), built directly to see the parts.
-  const int bucket = std::stoi(nnb::make_adapter("ours_kdtree", {})->info().params.at("bucket_size"));
-  const int leaf = std::stoi(nnb::make_adapter("ours_octree", {})->info().params.at("max_points_per_leaf"));
+  const int bucket = nnb::make_adapter("ours_kdtree", {})->info().bucket->value;
+  const int leaf = nnb::make_adapter("ours_octree", {})->info().bucket->value;
   ours::KdTree<double> kd;
   kd.build(model.data(), model.cols(), bucket);
   std::printf("  ours_kdtree (b%d): nodes %.2f B (%zu B each) + bucket indices %.2f B = %.2f B excl. points; "

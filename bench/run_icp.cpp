@@ -72,15 +72,7 @@ Input load_input(const std::string& model_spec, const std::string& query_spec, c
 }
 
 // The adapter's bucket/leaf-size parameter, if it declares one (Figure 2's x axis).
-std::string bucket_param_of(const nnb::AdapterInfo& info) {
-  for (const char* name : {"bucket_size", "leaf_size", "max_points_per_leaf", "capacity"}) {
-    if (info.params.count(name)) return name;
-  }
-  for (const auto& [name, value] : info.params) {
-    if (name.find("bucket") != std::string::npos || name.find("leaf") != std::string::npos) return name;
-  }
-  return "";
-}
+std::string bucket_param_of(const nnb::AdapterInfo& info) { return info.bucket ? info.bucket->name : ""; }
 
 icp::Options options_of(const icp::Settings& s, const Eigen::Matrix4d& initial) {
   icp::Options o;
@@ -100,7 +92,7 @@ icp::Record run_one(const Input& in, const std::string& adapter, const nnb::Para
   rec.adapter = adapter;
   rec.params = index->info().params;
   rec.bucket_param = bucket_param_of(index->info());
-  if (!rec.bucket_param.empty()) rec.bucket_size = std::stoi(rec.params.at(rec.bucket_param));
+  if (const auto& bucket = index->info().bucket) rec.bucket_size = bucket->value;
   rec.model_points = static_cast<std::size_t>(in.model.cols());
   rec.query_points = static_cast<std::size_t>(in.query.cols());
   rec.query_stride = query_stride;

@@ -108,6 +108,20 @@ TEST(Registry, UnknownAdapterAndParameterAreRefused) {
   EXPECT_EQ(nnb::adapter_names().front(), "brute_force");
 }
 
+TEST(ParamReader, RealsAreReportedLosslesslyAndTheBucketIsDeclared) {
+  nnb::ParamReader reader("x", {{"r", "0.30000000000000004"}, {"b", "12"}});
+  const double third = reader.get_double("third", 1.0 / 3.0, 0.0, 1.0);
+  EXPECT_EQ(reader.get_double("r", 0.0, 0.0, 1.0), 0.30000000000000004);
+  EXPECT_EQ(reader.get_bucket("b", 10, 1, 100, 2, 50), 12);
+  const nnb::Params effective = reader.finish();
+  EXPECT_EQ(std::stod(effective.at("third")), third);  // not 6 significant digits
+  EXPECT_EQ(effective.at("r"), "0.30000000000000004");
+  ASSERT_TRUE(reader.bucket());
+  EXPECT_EQ(reader.bucket()->name, "b");
+  EXPECT_EQ(reader.bucket()->value, 12);
+  EXPECT_EQ(reader.bucket()->sensible_max, 50);
+}
+
 TEST(Helpers, SortAndTruncateAndFilter) {
   Neighbours n;
   n.reset();

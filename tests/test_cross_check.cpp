@@ -154,9 +154,10 @@ INSTANTIATE_TEST_SUITE_P(EveryAdapter, CrossCheck, ::testing::ValuesIn(all_cases
 class EdgeCase : public ::testing::TestWithParam<std::string> {
  protected:
   // Every query kind on (model, queries) at the given k and distance, compared with brute force.
-  void expect_same_as_brute_force(const Cloud& model, const Cloud& queries, int k, double dist_m) {
+  void expect_same_as_brute_force(const Cloud& model, const Cloud& queries, int k, double dist_m,
+                                  const nnb::Params& params = {}) {
     auto reference = nnb::make_adapter("brute_force");
-    auto index = nnb::make_adapter(GetParam());
+    auto index = nnb::make_adapter(GetParam(), params);
     reference->build(model);
     index->build(model);
     Neighbours expected, got;
@@ -284,6 +285,22 @@ TEST_P(EdgeCase, DeclaresItselfCompletely) {
   index->build(model);
   if (GetParam() != "brute_force") {
     EXPECT_GT(index->index_bytes(), 0u);
+  }
+}
+
+TEST_P(EdgeCase, BucketParameterIsDeclaredAndAnswersExactlyAcrossItsRange) {
+  const auto& info = nnb::make_adapter(GetParam())->info();
+  if (!info.bucket) return;  // the library fixes its leaf size
+  const auto& bucket = *info.bucket;
+  EXPECT_EQ(info.params.at(bucket.name), std::to_string(bucket.value));
+  ASSERT_LE(1, bucket.sensible_min);
+  ASSERT_LE(bucket.sensible_min, bucket.sensible_max);
+  if (!info.exact) return;
+  const Cloud model = make_shape(Shape::filled_cube, 600, 2);
+  for (const int size : {bucket.sensible_min, bucket.sensible_max}) {
+    const nnb::Params params{{bucket.name, std::to_string(size)}};
+    EXPECT_EQ(nnb::make_adapter(GetParam(), params)->info().bucket->value, size);
+    expect_same_as_brute_force(model, make_shape(Shape::hollow_sphere, 200, 3), 3, 0.3, params);
   }
 }
 

@@ -33,7 +33,7 @@ double inflated_sq_bound_m2(double limit_m, const double* query) {
 class AnnKdTree final : public SearchIndex {
  public:
   explicit AnnKdTree(const Params& params) : SearchIndex(describe(params)) {
-    bucket_size_ = std::stoi(info().params.at("bucket_size"));
+    bucket_size_ = info().bucket->value;
   }
 
   std::size_t index_bytes() const override {
@@ -56,8 +56,9 @@ class AnnKdTree final : public SearchIndex {
     info.radius = Strategy::native;
     info.ranged = Strategy::via_knn;
     ParamReader reader(info.name, params);
-    reader.get_int("bucket_size", 1, 1, 1 << 20);
+    reader.get_bucket("bucket_size", 1, 1, 1 << 20, 1, 64);
     info.params = reader.finish();
+    info.bucket = reader.bucket();
     info.notes =
         "k clamped to the model size (ANN aborts the process otherwise); radius = annkFRSearch twice "
         "(k=0 for the count, then k=count), with a slightly inflated squared radius and an exact "

@@ -42,7 +42,7 @@ using Sphere = CGAL::Fuzzy_sphere<Traits>;
 class CgalKdTree final : public SearchIndex {
  public:
   explicit CgalKdTree(const Params& params) : SearchIndex(describe(params)) {
-    bucket_size_ = static_cast<unsigned>(std::stoi(info().params.at("bucket_size")));
+    bucket_size_ = static_cast<unsigned>(info().bucket->value);
   }
 
   // The point copy, the tree's index array and pointer array, and its nodes (a binary tree: one
@@ -67,8 +67,9 @@ class CgalKdTree final : public SearchIndex {
     info.radius = Strategy::native;
     info.ranged = Strategy::via_knn;
     ParamReader reader(info.name, params);
-    reader.get_int("bucket_size", 10, 1, 1 << 20);  // CGAL's Sliding_midpoint default
+    reader.get_bucket("bucket_size", 10, 1, 1 << 20, 1, 64);  // CGAL's Sliding_midpoint default
     info.params = reader.finish();
+    info.bucket = reader.bucket();
     info.notes =
         "tree built eagerly in build() (CGAL builds on the first query otherwise); k-NN rows "
         "recomputed in double and sorted by (sq_dist, index); radius = Fuzzy_sphere (eps 0) with a "

@@ -36,7 +36,7 @@ class RadiusRow final : public flann::ResultSet<float> {
 class FlannKdTree final : public SearchIndex {
  public:
   explicit FlannKdTree(const Params& params) : SearchIndex(describe(params)) {
-    leaf_size_ = std::stoi(info().params.at("leaf_size"));
+    leaf_size_ = info().bucket->value;
   }
 
   // FLANN's usedMemory() counts its node pool and its permutation (one int per point); on top of it
@@ -62,8 +62,9 @@ class FlannKdTree final : public SearchIndex {
     info.ranged = Strategy::via_knn;
     info.exact = true;
     ParamReader reader(info.name, params);
-    reader.get_int("leaf_size", 10, 1, 1 << 20);  // the paper's choice on synthetic data (15 on real scans)
+    reader.get_bucket("leaf_size", 10, 1, 1 << 20, 1, 64);  // the paper's choice on synthetic data (15 on real scans)
     info.params = reader.finish();
+    info.bucket = reader.bucket();
     info.notes =
         "FLANN keeps d^2 < r^2 in float (drops points at r, finds nothing at r=0): float coordinates "
         "relative to the model's bounding-box centre, radius searched wider by 1e-5 + 1e-6 of the coordinates, "

@@ -81,7 +81,7 @@ class BoundedKnnResultSet {
 class NanoflannKdTree final : public SearchIndex {
  public:
   explicit NanoflannKdTree(const Params& params) : SearchIndex(describe(params)) {
-    leaf_size_ = std::stoi(info().params.at("leaf_size"));
+    leaf_size_ = info().bucket->value;
   }
 
   // Pool memory of the nodes plus nanoflann's permutation array (its own usedMemory()).
@@ -100,8 +100,9 @@ class NanoflannKdTree final : public SearchIndex {
     info.radius = Strategy::native;
     info.ranged = Strategy::native;
     ParamReader reader(info.name, params);
-    reader.get_int("leaf_size", 10, 1, 1 << 20);
+    reader.get_bucket("leaf_size", 10, 1, 1 << 20, 1, 64);
     info.params = reader.finish();
+    info.bucket = reader.bucket();
     info.notes =
         "radius and ranged search with a bound inflated past nanoflann's strict '<', then filtered "
         "by sq_dist <= r*r; ranged = findNeighbors with a k-NN result set whose worstDist starts at "

@@ -16,7 +16,7 @@ constexpr int kDefaultBucketSize = 48;
 class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
  public:
   explicit OursKdTree(const Params& params)
-      : OursIndex(describe(params)), bucket_size_(std::stoi(info().params.at("bucket_size"))) {}
+      : OursIndex(describe(params)), bucket_size_(info().bucket->value) {}
 
  private:
   static AdapterInfo describe(const Params& params) {
@@ -26,7 +26,7 @@ class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
     info.version = "1";
     info.structure = "k-d tree";
     ParamReader reader(info.name, params);
-    reader.get_int("bucket_size", kDefaultBucketSize, 1, 1 << 20);
+    reader.get_bucket("bucket_size", kDefaultBucketSize, 1, 1 << 20, 4, 128);
     return shared_info(std::move(info), reader);
   }
 

@@ -13,11 +13,10 @@ constexpr int kDefaultMaxPoints = 80;
 
 class OursOctree final : public ours_rows::OursIndex<ours::Octree> {
  public:
-  explicit OursOctree(const Params& params) : OursIndex(describe(params)) {
-    ParamReader reader(info().name, params);  // again, for the values at full precision
-    max_points_ = reader.get_int("max_points_per_leaf", kDefaultMaxPoints, 1, 1 << 20);
-    min_cell_m_ = reader.get_double("min_cell_size_m", 0.0, 0.0, 1e9);
-  }
+  explicit OursOctree(const Params& params)
+      : OursIndex(describe(params)),
+        max_points_(info().bucket->value),
+        min_cell_m_(std::stod(info().params.at("min_cell_size_m"))) {}  // shortest round-trip text: lossless
 
  private:
   static AdapterInfo describe(const Params& params) {
@@ -27,7 +26,7 @@ class OursOctree final : public ours_rows::OursIndex<ours::Octree> {
     info.version = "1";
     info.structure = "octree";
     ParamReader reader(info.name, params);
-    reader.get_int("max_points_per_leaf", kDefaultMaxPoints, 1, 1 << 20);
+    reader.get_bucket("max_points_per_leaf", kDefaultMaxPoints, 1, 1 << 20, 8, 256);
     reader.get_double("min_cell_size_m", 0.0, 0.0, 1e9);
     return shared_info(std::move(info), reader);
   }

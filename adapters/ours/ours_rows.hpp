@@ -75,6 +75,7 @@ class OursIndex : public SearchIndex {
     info.ranged = Strategy::native;
     info.scalar = reader.get_choice("scalar", "double", {"float", "double"});
     info.params = reader.finish();
+    info.bucket = reader.bucket();
     info.notes = info.scalar == "float" ? "float search widened by its rounding bound, refined in double"
                                         : "distances computed as sq_dist_m2, bit-exact";
     return info;

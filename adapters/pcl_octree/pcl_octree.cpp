@@ -50,8 +50,8 @@ class PclOctree final : public SearchIndex {
  public:
   PclOctree(const Params& params, bool approximate)
       : SearchIndex(describe(params, approximate)), approximate_(approximate) {
-    resolution_param_m_ = std::stod(info().params.at("resolution_m"));
-    points_per_leaf_ = std::stod(info().params.at("leaf_points"));
+    resolution_param_m_ = std::stod(info().params.at("resolution_m"));  // shortest round-trip text: lossless
+    points_per_leaf_ = info().bucket->value;
   }
 
   // Nodes as PCL allocates them (one object per leaf and per branch, leaves holding a std::vector of
@@ -77,8 +77,9 @@ class PclOctree final : public SearchIndex {
     info.exact = !approximate;
     ParamReader reader(info.name, params);
     reader.get_double("resolution_m", 0.0, 0.0, 1e6);  // voxel edge; 0 = auto from leaf_points
-    reader.get_double("leaf_points", 10.0, 1.0, 1e6);  // the paper's bucket size for synthetic data
+    reader.get_bucket("leaf_points", 10, 1, 1000000, 1, 64);  // the paper's bucket size for synthetic data
     info.params = reader.finish();
+    info.bucket = reader.bucket();
     info.notes =
         approximate ? "approxNearestSearch: 1-NN only (k > 1 and radius refused), not exact; float coordinates "
                       "relative to the bounding-box centre, distance recomputed in double"

@@ -60,8 +60,8 @@ constexpr std::size_t kEntryBytes = kBoxBytes + sizeof(si::id_type) + 4;
 class SpatialIndexRTree final : public SearchIndex {
  public:
   SpatialIndexRTree(const Params& params, bool rstar) : SearchIndex(describe(params, rstar)), rstar_(rstar) {
-    capacity_ = static_cast<std::uint32_t>(std::stoi(info().params.at("capacity")));
-    fill_factor_ = std::stod(info().params.at("fill_factor"));
+    capacity_ = static_cast<std::uint32_t>(info().bucket->value);
+    fill_factor_ = std::stod(info().params.at("fill_factor"));  // shortest round-trip text: lossless
   }
 
   ~SpatialIndexRTree() override {
@@ -84,10 +84,11 @@ class SpatialIndexRTree final : public SearchIndex {
     info.radius = Strategy::via_box;
     info.ranged = Strategy::via_knn;
     ParamReader reader(info.name, params);
-    reader.get_int("capacity", 10, 4, 1 << 16);  // the library needs >= 4
+    reader.get_bucket("capacity", 10, 4, 1 << 16, 4, 128);  // the library needs >= 4
     // The library rejects fill factors >= 0.5 for the quadratic split.
     reader.get_double("fill_factor", rstar ? 0.7 : 0.4, 0.01, rstar ? 0.99 : 0.49);
     info.params = reader.finish();
+    info.bucket = reader.bucket();
     info.notes =
         "k-NN rows recomputed in double and cut to k (the library returns all ties at the k-th "
         "distance, ordered by sqrt distance); radius = intersectsWithQuery on the query's box widened "

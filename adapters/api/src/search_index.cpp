@@ -1,6 +1,7 @@
 #include "nnb/search_index.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -176,9 +177,15 @@ double ParamReader::get_double(const std::string& name, double fallback, double 
         << ")";
     throw InputError(msg.str());
   }
-  std::ostringstream text;
-  text << value;
-  effective_[name] = text.str();
+  char text[32];  // shortest text that reads back as the same double: reported parameters are lossless
+  effective_[name] = std::string(text, std::to_chars(text, text + sizeof text, value).ptr);
+  return value;
+}
+
+int ParamReader::get_bucket(const std::string& name, int fallback, int min, int max, int sensible_min,
+                            int sensible_max) {
+  const int value = get_int(name, fallback, min, max);
+  bucket_ = AdapterInfo::BucketParam{name, value, sensible_min, sensible_max};
   return value;
 }
 

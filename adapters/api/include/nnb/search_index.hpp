@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,7 +45,16 @@ struct AdapterInfo {
   Strategy radius = Strategy::native;
   Strategy ranged = Strategy::via_knn;
   bool exact = true;      ///< false for approximate searches, which are never cross-checked as exact
-  Params params;          ///< effective parameters, defaults included
+  Params params;          ///< effective parameters, defaults included (reals as shortest round-trip text)
+  /// The parameter that sets how many points a leaf or bucket holds (the x axis of the paper's Figure 2),
+  /// with its effective value and the range worth sweeping; absent when the library fixes it.
+  struct BucketParam {
+    std::string name;
+    int value = 0;
+    int sensible_min = 0;
+    int sensible_max = 0;
+  };
+  std::optional<BucketParam> bucket;
   std::string notes;      ///< workarounds the adapter applies, in one line
 
   Strategy strategy(SearchKind kind) const;
@@ -102,6 +112,11 @@ class ParamReader {
   int get_int(const std::string& name, int fallback, int min, int max);
   /// Real parameter in [min, max], default when absent; records the effective value.
   double get_double(const std::string& name, double fallback, double min, double max);
+  /// The adapter's bucket parameter: an integer in [min, max] like get_int, declared with the range worth
+  /// sweeping so that drivers need not guess it from names.
+  int get_bucket(const std::string& name, int fallback, int min, int max, int sensible_min, int sensible_max);
+  /// The bucket parameter read by get_bucket, if any.
+  std::optional<AdapterInfo::BucketParam> bucket() const { return bucket_; }
   /// One of the allowed words, default when absent; records the effective value.
   std::string get_choice(const std::string& name, const std::string& fallback,
                          const std::vector<std::string>& allowed);
@@ -112,6 +127,7 @@ class ParamReader {
   std::string adapter_;
   Params given_;
   Params effective_;
+  std::optional<AdapterInfo::BucketParam> bucket_;
 };
 
 /// Recomputes every squared distance of out in double precision from the model and queries:
