@@ -11,9 +11,17 @@ import fig_icp  # noqa: E402
 import fig_scale  # noqa: E402
 import fig_speedup  # noqa: E402
 import fig_sweep  # noqa: E402
+import provenance  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
 from table1 import write_table1  # noqa: E402
+
+
+def write_provenance(check, out_dir):
+    """PROVENANCE.md beside the figures: the inputs they were drawn from, and the warning if any."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    lines = ["# Inputs of these figures", ""] + ([f"**{check.banner()}**", ""] if check.marks else [])
+    (out_dir / "PROVENANCE.md").write_text("\n".join(lines + [f"- {line}" for line in check.lines]) + "\n")
 
 
 def main(argv=None):
@@ -23,15 +31,19 @@ def main(argv=None):
                              "micro_nns/micro_nns.json, else results/*.json)")
     parser.add_argument("--out", type=Path, default=results_io.REPO_ROOT / "results" / "figures",
                         help="output directory (default: results/figures)")
+    provenance.add_arguments(parser)
     args = parser.parse_args(argv)
     paths = args.results or results_io.default_inputs()
     if not paths:
         print("make_figures: no results files (results/reference/*.json or results/*.json): nothing to plot")
         return 0
-    results = results_io.load(paths)
+    results = results_io.load(paths, prefer=args.prefer)
     if not results.files:
         print("make_figures: none of the given files could be read", file=sys.stderr)
         return 1
+    check = provenance.check_or_exit(results, args, "make_figures")
+    write_provenance(check, args.out)
+    style.WARNING = check.banner()
     style.setup()
     write_table1(results, args.out)
     fig_icp.fig2(results, args.out)

@@ -17,6 +17,7 @@ import fig_scale  # noqa: E402
 import fig_speedup  # noqa: E402
 import fig_sweep  # noqa: E402
 import findings  # noqa: E402
+import provenance  # noqa: E402
 import readme_tables  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
@@ -160,7 +161,9 @@ def md_table_html(lines):
             + "".join("<tr>" + "".join(f"<td>{cell(c)}</td>" for c in r) + "</tr>" for r in body) + "</table>")
 
 
-def provenance_html(results):
+def provenance_html(results, check=None):
+    check = check or provenance.Check(results, True, True, "newest")
+    lines = "".join(f"<li>{html.escape(line)}</li>" for line in check.lines)
     rows = ["| file | experiment | date | host | CPUs | load at start | build | git commit |", "|---|---|---|---|---|---|---|---|"]
     for path, ctx in results.files:
         load = ctx.get("load_avg")
@@ -168,7 +171,7 @@ def provenance_html(results):
                     f"{ctx.get('host_name', '?')} | {ctx.get('num_cpus', '?')} x {ctx.get('mhz_per_cpu', '?')} MHz | "
                     f"{', '.join(f'{x:.2f}' for x in load) if isinstance(load, list) else '?'} | "
                     f"{ctx.get('build_type', ctx.get('library_build_type', '?'))} | {ctx.get('git_commit') or '?'} |")
-    return md_table_html(rows)
+    return md_table_html(rows) + f"<ul>{lines}</ul>"
 
 
 def findings_html(results):
@@ -211,13 +214,17 @@ document.addEventListener('DOMContentLoaded', function () {
 });
 """
 
-CSS = """body{font-family:sans-serif;max-width:1400px;margin:auto;padding:0 1em;color:#222}
+CSS = """#provenance-warning{color:#b00020}body{font-family:sans-serif;max-width:1400px;margin:auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;font-size:13px;margin:0.5em 0}td,th{border:1px solid #ccc;padding:2px 6px;text-align:left}
 .plot{width:100%;min-height:520px}.rule{color:#555;font-size:13px}#errors{color:#b00020}
 nav a{margin-right:1em}details{margin:0.5em 0}"""
 
 
-def render(results, plotly_js):
+def warning_html(check):
+    return f"<p id=provenance-warning><b>{html.escape(check.banner())}</b></p>" if check and check.marks else ""
+
+
+def render(results, plotly_js, check=None):
     sections = all_figures(results)
     figs, body = [], []
     for title, section_figs in sections:
@@ -232,11 +239,11 @@ def render(results, plotly_js):
 <style>{CSS}</style><script>{plotly_js}</script><script>{SCRIPT}</script></head><body>
 <h1>nns-bench: nearest-neighbour search for 3D registration</h1>
 <p>Every plot: click a legend entry to hide a series, double-click to isolate it, hover for values;
-the log / linear buttons switch the time axis.</p><nav>{nav}</nav><pre id="errors"></pre>
+the log / linear buttons switch the time axis.</p>{warning_html(check)}<nav>{nav}</nav><pre id="errors"></pre>
 <div id="plots">{''.join(body)}</div>
 <h2 id="table1">Table 1: libraries and how each search kind is answered</h2>{table1}
 <h2 id="findings">The paper's claims against these results</h2>{findings_html(results)}
-<h2 id="machine">Machine and provenance of each input file</h2>{provenance_html(results)}
+<h2 id="machine">Machine and provenance of each input file</h2>{provenance_html(results, check)}
 <h2 id="adapters">Adapters</h2>{adapters}
 <script type="application/json" id="figures">{figures_json(figs)}</script>
 </body></html>"""
@@ -258,15 +265,17 @@ def main(argv=None):
     parser.add_argument("results", nargs="*", type=Path, help="results files (default: as make_figures.py)")
     parser.add_argument("--out", type=Path, default=results_io.REPO_ROOT / "results" / "figures",
                         help="output directory; the page is DIR/report.html")
+    provenance.add_arguments(parser)
     args = parser.parse_args(argv)
     paths = args.results or results_io.default_inputs()
-    results = results_io.load(paths)
+    results = results_io.load(paths, prefer=args.prefer)
     if not results.files:
         print("report: no results file could be read", file=sys.stderr)
         return 1
+    check = provenance.check_or_exit(results, args, "report")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "report.html"
-    path.write_text(render(results, plotly_js()))
+    path.write_text(render(results, plotly_js(), check))
     print(f"wrote {path}")
     return 0
 

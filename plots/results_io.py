@@ -73,6 +73,7 @@ class Results:
         self.micro = []      # MicroCell
         self.build_skips = {}  # (model, adapter) -> reason the build did not run
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
+        self.duplicates = {}  # record name -> [paths of every file holding it], when more than one
 
     def adapter_info(self, name):
         return self.adapters.get(name, {})
@@ -212,9 +213,68 @@ def _kind(rec):
     return None
 
 
-def load(paths):
-    """Reads every results file; a file that cannot be read is reported and left out."""
+def run_name(rec):
+    """The cell a record belongs to: Google Benchmark's run_name (shared by repetitions and aggregates)."""
+    return str(rec.get("run_name") or rec.get("name", ""))
+
+
+def _median(values):
+    values = sorted(values)
+    mid = len(values) // 2
+    return values[mid] if len(values) % 2 else (values[mid - 1] + values[mid]) / 2
+
+
+def one_record_per_cell(records):
+    """One record per run_name: the median aggregate when there is one, else the only record, else the
+    repetitions' median (their real_time) on a copy of the first. Fields missing from an aggregate are taken
+    from the cell's first repetition, which carries them."""
+    by_cell = {}
+    for rec in records:
+        if isinstance(rec, dict):
+            by_cell.setdefault(run_name(rec), []).append(rec)
+    out = []
+    for recs in by_cell.values():
+        aggregates = [r for r in recs if r.get("run_type") == "aggregate"]
+        runs = [r for r in recs if r.get("run_type") != "aggregate"]
+        median = next((r for r in aggregates if r.get("aggregate_name") == "median"), None)
+        if median is not None:
+            out.append({**(runs[0] if runs else {}), **median, "name": run_name(median)})
+        elif len(runs) == 1:
+            out.append(runs[0])
+        elif runs:
+            out.append(_median_of_repetitions(runs))
+    return out
+
+
+def _median_of_repetitions(runs):
+    timed = [r for r in runs if not _skip_reason(r) and _number(r.get("real_time")) is not None]
+    first = dict(runs[0])
+    if not timed:
+        return first
+    for field in ("median_seconds", "median_s", "mean_s", "min_s", "stddev_s"):
+        first.pop(field, None)
+    first["real_time"] = _median([_number(r["real_time"]) for r in timed])
+    first.pop("skipped", None), first.pop("error_occurred", None)
+    return first
+
+
+def experiment_of(context):
+    """The experiment's name: run_sweep writes `experiment`, run_icp `nnb_experiment`."""
+    return context.get("experiment") or context.get("nnb_experiment")
+
+
+def file_date(context):
+    return str(context.get("date") or "")
+
+
+def load(paths, prefer=None):
+    """Reads every results file; a file that cannot be read is reported and left out.
+
+    A record name found in several files is noted in Results.duplicates; the copy used is the newest file's
+    (context date, then reading order) when prefer == "newest", else the last one read. Callers that must not
+    guess refuse duplicates unless asked to prefer the newest (see provenance.py)."""
     results = Results()
+    docs = []
     for path in paths:
         try:
             doc = json.loads(Path(path).read_text())
@@ -225,29 +285,36 @@ def load(paths):
             warn(f"{path}: not a results file (no 'benchmarks' list): ignored")
             continue
         context = doc.get("context") if isinstance(doc.get("context"), dict) else {}
-        results.files.append((str(path), context))
+        docs.append((str(path), context, doc["benchmarks"]))
+    if prefer == "newest":
+        docs.sort(key=lambda d: file_date(d[1]))  # stable: reading order among equal dates
+    seen = {}
+    for path, context, benchmarks in docs:
+        results.files.append((path, context))
         for name, info in (context.get("adapters") or {}).items():
             if isinstance(info, dict):
                 results.adapters.setdefault(name, {}).update({k: v for k, v in info.items() if v is not None})
         sizes = {(d.get("spec"), d.get("role")): _number(d.get("points"))
                  for d in (context.get("datasets") or []) if isinstance(d, dict)}
-        for rec in doc["benchmarks"]:
-            if not isinstance(rec, dict):
-                continue
+        micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) == "micro"]
+        for rec in micro:
+            if rec.get("run_type") != "aggregate":
+                _read_micro(results, rec)
+        for rec in one_record_per_cell(r for r in benchmarks if isinstance(r, dict) and _kind(r) != "micro"):
             kind = _kind(rec)
-            if kind == "micro":
-                if rec.get("run_type") != "aggregate":
-                    _read_micro(results, rec)
-                continue
-            if rec.get("run_type") == "aggregate" and rec.get("aggregate_name") != "median":
-                continue
+            if kind in ("sweep", "build"):
+                seen.setdefault(run_name(rec), []).append(path)
+            elif kind == "icp":  # each ICP experiment is drawn on its own: the same cell in two is no conflict
+                seen.setdefault(f"{experiment_of(context)}: {run_name(rec)}", []).append(path)
             if kind == "sweep":
                 _read_sweep(results, rec, sizes)
             elif kind == "build":
                 _read_build(results, rec)
             elif kind == "icp":
-                _read_icp(results, rec, context.get("experiment") or context.get("nnb_experiment"))
+                _read_icp(results, rec, experiment_of(context))
+    results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
     results.sweep = _one_k(_last_wins(results.sweep, lambda c: (c.model, c.query, c.adapter, c.search, c.max_dist_m, c.k)))
+    results.icp = _last_wins(results.icp, lambda r: (r.experiment, r.pair, r.adapter, r.search, r.bucket_size))
     return results
 
 
@@ -255,8 +322,6 @@ def _last_wins(items, key):
     by_key = {}
     for item in items:
         by_key[key(item)] = item
-    if len(by_key) < len(items):
-        warn(f"{len(items) - len(by_key)} duplicate records: the last one read is used")
     return list(by_key.values())
 
 

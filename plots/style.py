@@ -172,9 +172,16 @@ def legends_in(ax, adapters, classes, results, ncol=4, skip=True):
                   title="line style: how the search is answered")
 
 
+# Set by make_figures.py when its inputs are not a clean run: written across the top of every figure.
+WARNING = ""
+
+
 def save(fig, out_dir, stem):
     """Writes stem.png (at most MAX_WIDTH_PX wide) and stem.svg; returns the png path."""
     out_dir.mkdir(parents=True, exist_ok=True)
+    if WARNING:
+        fig.text(0.5, 1.0, WARNING, ha="center", va="bottom", color="#b00020", fontsize=9, fontweight="bold",
+                 wrap=True)
     png = out_dir / f"{stem}.png"
     fig.savefig(png, bbox_inches="tight", dpi=DPI)
     width = Image.open(png).size[0]

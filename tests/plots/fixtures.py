@@ -105,8 +105,14 @@ def icp_real_records():
     return records
 
 
-def context(experiment):
-    return {"date": "2024-01-01T00:00:00", "host_name": "fixture", "experiment": experiment,
+CLEAN_COMMIT = "0123456789abcdef0123456789abcdef01234567"
+
+
+def context(experiment, date="2024-01-01T00:00:00", wall_seconds=None, commit=CLEAN_COMMIT):
+    """A clean run's context (commit without +dirty); wall_seconds recorded only when given."""
+    extra = {} if wall_seconds is None else {"wall_seconds": wall_seconds, "load_avg_after": [0.2, 0.2, 0.2]}
+    return {"date": date, "host_name": "fixture", "experiment": experiment, **extra,
+            "git_commit": commit, "command_line": f"run_sweep --experiment {experiment}", "load_avg": [0.1, 0.1, 0.1],
             "library_build_type": "release",
             "adapters": {name: {"library": lib, "version": "1.0", "structure": structure,
                                 "knn": kinds.get("knn", "via_box"), "radius": kinds.get("radius", "via_box"),
@@ -114,10 +120,10 @@ def context(experiment):
                          for name, (lib, structure, kinds) in ADAPTERS.items()}}
 
 
-def write(path, experiment, records):
-    """Writes one results file; returns its path."""
+def write(path, experiment, records, **context_args):
+    """Writes one results file; returns its path. context_args: see context()."""
     path = Path(path)
-    path.write_text(json.dumps({"context": context(experiment), "benchmarks": records}))
+    path.write_text(json.dumps({"context": context(experiment, **context_args), "benchmarks": records}))
     return path
 
 

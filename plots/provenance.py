@@ -1,0 +1,124 @@
+"""Where each results file came from, and whether the plots may trust it.
+
+Every output that reads results files prints, per file, its git commit (dirty or not), command line, load
+average before and after, date and wall time. Inputs from a dirty tree (or with no commit recorded: a clean
+tree cannot be shown), runs that overlapped in time on the same host, and records found in more than one file
+are refused unless the caller allows them; an allowed problem is kept in `marks` so the output can say so."""
+import datetime
+import sys
+
+import results_io
+
+REFUSED = 2
+
+
+def add_arguments(parser):
+    parser.add_argument("--allow-dirty", action="store_true",
+                        help="use inputs from a modified source tree (or with no commit recorded); the output says so")
+    parser.add_argument("--allow-overlap", action="store_true",
+                        help="use inputs whose runs overlapped in time; the output says so")
+    parser.add_argument("--prefer", choices=["newest"],
+                        help="records found in several files: take each from the newest file (by context date)")
+
+
+def is_dirty(context):
+    commit = context.get("git_commit")
+    return context.get("git_dirty") is True or not commit or str(commit).endswith("+dirty")
+
+
+def _load_text(load):
+    if not isinstance(load, list) or not load:
+        return "?"
+    return "/".join(f"{x:.2f}" for x in load if isinstance(x, (int, float)))
+
+
+def start_time(context):
+    """The run's start as an aware datetime (naive dates read as UTC), or None."""
+    try:
+        when = datetime.datetime.fromisoformat(str(context.get("date")))
+    except ValueError:
+        return None
+    return when if when.tzinfo else when.replace(tzinfo=datetime.timezone.utc)
+
+
+def wall_seconds(context):
+    value = context.get("wall_seconds")
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0 else None
+
+
+def interval(context):
+    """(start, end) of the run when both its date and wall time are recorded, else None."""
+    start, wall = start_time(context), wall_seconds(context)
+    return None if start is None or wall is None else (start, start + datetime.timedelta(seconds=wall))
+
+
+def describe(path, context):
+    """One line of provenance for a results file."""
+    commit = context.get("git_commit") or "unknown"
+    dirty = " (DIRTY TREE)" if is_dirty(context) and context.get("git_commit") else ""
+    command = context.get("command_line") or context.get("executable") or "?"
+    if isinstance(command, list):
+        command = " ".join(map(str, command))
+    wall = wall_seconds(context)
+    after = _load_text(context.get("load_avg_after")) if context.get("load_avg_after") else "not recorded"
+    return (f"`{results_io.display_path(path)}`: experiment {results_io.experiment_of(context) or '?'}; "
+            f"commit {commit}{dirty}; command `{command}`; load {_load_text(context.get('load_avg'))} before, "
+            f"{after} after; started {context.get('date', '?')}, "
+            f"wall time {'not recorded' if wall is None else f'{wall:.0f} s'}")
+
+
+def overlaps(files):
+    """[(path a, path b)] of runs on the same host (or an unknown one) whose time intervals intersect."""
+    runs = [(path, ctx, interval(ctx)) for path, ctx in files]
+    runs = [r for r in runs if r[2] is not None]
+    out = []
+    for i, (pa, ca, (sa, ea)) in enumerate(runs):
+        for pb, cb, (sb, eb) in runs[i + 1:]:
+            same_host = not ca.get("host_name") or not cb.get("host_name") or ca["host_name"] == cb["host_name"]
+            if pa != pb and same_host and sa < eb and sb < ea:
+                out.append((pa, pb))
+    return out
+
+
+class Check:
+    """The provenance verdict on a set of results: refusal (one line) or the marks the output must carry."""
+
+    def __init__(self, results, allow_dirty=False, allow_overlap=False, prefer=None):
+        self.lines = [describe(path, ctx) for path, ctx in results.files]
+        dirty = [results_io.display_path(p) for p, ctx in results.files if is_dirty(ctx)]
+        overlapping = overlaps(results.files)
+        duplicates = results.duplicates
+        problems, self.marks = [], []
+        if dirty:
+            text = f"{len(dirty)} input(s) from a dirty tree or with no commit recorded ({', '.join(dirty)})"
+            (self.marks if allow_dirty else problems).append(text + ("" if allow_dirty else "; --allow-dirty to use them"))
+        if overlapping:
+            pairs = ", ".join(f"{results_io.display_path(a)} and {results_io.display_path(b)}" for a, b in overlapping)
+            text = f"runs overlapped in time: {pairs}"
+            (self.marks if allow_overlap else problems).append(text + ("" if allow_overlap else "; --allow-overlap to use them"))
+        if duplicates:
+            name, paths = next(iter(sorted(duplicates.items())))
+            text = (f"{len(duplicates)} record(s) in more than one file (e.g. {name} in "
+                    f"{' and '.join(results_io.display_path(p) for p in sorted(set(paths)))})")
+            if prefer == "newest":
+                self.marks.append(text + ": each taken from the newest file")
+            else:
+                problems.append(text + "; --prefer newest to take each from the newest file")
+        self.refusal = "; ".join(problems) or None
+
+    def banner(self):
+        """The loud mark for outputs made from inputs that would otherwise be refused ('' when clean)."""
+        return "" if not self.marks else "NOT A CLEAN RUN: " + "; ".join(self.marks)
+
+
+def check_or_exit(results, args, prog):
+    """The Check for the parsed --allow-*/--prefer options; prints provenance; exits 2 (one line) on refusal."""
+    check = Check(results, args.allow_dirty, args.allow_overlap, args.prefer)
+    if check.refusal:
+        print(f"{prog}: refused: {check.refusal}", file=sys.stderr)
+        sys.exit(REFUSED)
+    for line in check.lines:
+        print(f"{prog}: input {line}")
+    if check.marks:
+        print(f"{prog}: WARNING: {check.banner()}", file=sys.stderr)
+    return check
