@@ -1,7 +1,7 @@
 """Claims 4, 6 and 8: decided on construction records and ICP runs."""
 from fig_build import build_table
 from fig_icp import bucket_curves
-from verdict import FAILS, HOLDS, UNTESTED, Verdict
+from verdict import FAILS, HOLDS, UNTESTED, Verdict, basis
 
 REFERENCE = "brute_force"
 
@@ -20,9 +20,11 @@ def claim4(results, prefix="spatialindex_"):
             ok &= ratio >= 2.0
             numbers.append(f"{model}: {min(spatial)[1]} {min(spatial)[0]:.4g} s vs slowest other "
                            f"{max(others)[1]} {max(others)[0]:.4g} s: {ratio:.2f}x")
+    skipped = sum(1 for (_, a) in results.build_skips if a != REFERENCE)
     if not numbers:
-        return Verdict(4, title, UNTESTED, rule, [f"no model cloud with builds of both {prefix}* and others"])
-    return Verdict(4, title, HOLDS if ok else FAILS, rule, numbers)
+        return Verdict(4, title, UNTESTED, rule, [f"no model cloud with builds of both {prefix}* and others"],
+                       basis(0, skipped, "model clouds"))
+    return Verdict(4, title, HOLDS if ok else FAILS, rule, numbers, basis(len(numbers), skipped, "model clouds"))
 
 
 def claim6(results, lo=5, hi=20):
@@ -42,9 +44,11 @@ def claim6(results, lo=5, hi=20):
             numbers.append(f"{pair} {adapter}{' ' + search if search else ''}: best bucket {best:g} "
                            f"({points[best]:.4g} s; range {min(points.values()):.4g}-{max(points.values()):.4g} s)")
     if tested == 0:
-        return Verdict(6, title, UNTESTED, rule, numbers or ["no ICP bucket-size runs"])
+        return Verdict(6, title, UNTESTED, rule, numbers or ["no ICP bucket-size runs (needs an ICP bucket results file)"],
+                       "rests on 0 curves")
     numbers.insert(0, f"{good} of {tested} curves have their optimum in {lo}-{hi}")
-    return Verdict(6, title, HOLDS if good >= 0.75 * tested else FAILS, rule, numbers)
+    return Verdict(6, title, HOLDS if good >= 0.75 * tested else FAILS, rule, numbers,
+                   f"rests on {tested} curves; {len(numbers) - 1 - tested} curves do not straddle {lo}-{hi}, not counted")
 
 
 def claim8(results, ours="ours_kdtree", ann="ann_kdtree"):
@@ -57,6 +61,8 @@ def claim8(results, ours="ours_kdtree", ann="ann_kdtree"):
             ratio = size[(model, ann)] / size[(model, ours)]
             ok &= ratio >= 5.0
             numbers.append(f"{model}: {ann} {size[(model, ann)]:.0f} B, {ours} {size[(model, ours)]:.0f} B: {ratio:.2f}x")
+    skipped = sum(1 for (_, a) in results.build_skips if a in (ours, ann))
     if not numbers:
-        return Verdict(8, title, UNTESTED, rule, [f"no model cloud with index_bytes of both {ours} and {ann}"])
-    return Verdict(8, title, HOLDS if ok else FAILS, rule, numbers)
+        return Verdict(8, title, UNTESTED, rule, [f"no model cloud with index_bytes of both {ours} and {ann}"],
+                       basis(0, skipped, "model clouds"))
+    return Verdict(8, title, HOLDS if ok else FAILS, rule, numbers, basis(len(numbers), skipped, "model clouds"))

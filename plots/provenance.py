@@ -55,7 +55,7 @@ def interval(context):
 def describe(path, context):
     """One line of provenance for a results file."""
     commit = context.get("git_commit") or "unknown"
-    dirty = " (DIRTY TREE)" if is_dirty(context) and context.get("git_commit") else ""
+    dirty = " (DIRTY TREE)" if is_dirty(context) and context.get("git_commit") else ("" if context.get("git_commit") else " (NOT RECORDED)")
     command = context.get("command_line") or context.get("executable") or "?"
     if isinstance(command, list):
         command = " ".join(map(str, command))

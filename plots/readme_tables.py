@@ -146,7 +146,7 @@ def main(argv=None):
     parser.add_argument("--readme", type=Path, default=README)
     parser.add_argument("results", nargs="*", type=Path, help="results files (default: as make_figures.py)")
     args = parser.parse_args(argv)
-    results = results_io.load(args.results or results_io.default_inputs())
+    results = results_io.load(args.results or results_io.default_inputs(), prefer="newest")
     if args.print:
         print(generate(results, args.print), end="")
         return 0
