@@ -16,8 +16,10 @@ resume=()
 if [ "${RESUME:-0}" = 1 ] && [ -f "${out}" ]; then resume=(--resume); fi
 build/release/bench/run_sweep --experiment "${experiment}" --out "${out}" "${resume[@]}"
 
-/usr/bin/python3 plots/make_figures.py "${out}" --out "results/figures/${experiment}"
-/usr/bin/python3 plots/findings.py "${out}" --out "results/figures/${experiment}/FINDINGS.md"
-/usr/bin/python3 plots/report.py "${out}" --out "results/figures/${experiment}"
+# A run from a modified tree is still plotted, marked "not a clean run" on every output.
+plot_flags=(--allow-dirty)
+/usr/bin/python3 plots/make_figures.py "${out}" --out "results/figures/${experiment}" "${plot_flags[@]}"
+/usr/bin/python3 plots/findings.py "${out}" --out "results/figures/${experiment}/FINDINGS.md" "${plot_flags[@]}"
+/usr/bin/python3 plots/report.py "${out}" --out "results/figures/${experiment}" "${plot_flags[@]}"
 echo "main: results in ${out}, figures and findings in results/figures/${experiment}/"
 echo "main: interactive report: results/figures/${experiment}/report.html"

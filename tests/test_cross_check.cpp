@@ -208,7 +208,9 @@ TEST_P(EdgeCase, LargestKIsAnsweredWithoutReservingForIt) {
     EXPECT_EQ(got.total(), 20u * 1000u);
   }
   index->ranged(queries, std::numeric_limits<int>::max(), 10.0, got);
-  if (index->info().exact) EXPECT_EQ(got.total(), 20u * 1000u);
+  if (index->info().exact) {
+    EXPECT_EQ(got.total(), 20u * 1000u);
+  }
 }
 
 TEST_P(EdgeCase, QueryExactlyOnAPoint) {
