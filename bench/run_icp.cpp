@@ -1,6 +1,7 @@
 // run_icp: point-to-point ICP of a query cloud onto a model cloud with any adapter as the
 // nearest-neighbour search, or a whole ICP experiment (bench/experiments/icp_*.json).
 #include "cli_common.hpp"
+#include "machine.hpp"
 #include "progress.hpp"
 #include "icp.hpp"
 #include "icp_experiment.hpp"
@@ -221,6 +222,7 @@ int run_experiment(const std::string& name, std::string out_path, const ds::Data
 }  // namespace
 
 int main(int argc, char** argv) {
+  nnb::bench::mark_run_start(argc, argv);
   return nnb::cli::run_reporting_errors("run_icp", [&]() -> int {
     CLI::App app{"Point-to-point ICP (Besl and McKay) with any adapter as the nearest-neighbour search."};
     std::string adapter, model_spec, query_spec, initial_file, out_path, experiment;

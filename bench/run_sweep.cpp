@@ -69,22 +69,15 @@ std::vector<std::string> input_files(const LoadedData& data, const Experiment& e
 }
 
 // The same command line with --resume, quoted for a POSIX shell.
-std::string resume_command(int argc, char** argv) {
-  std::string command;
-  bool resumes = false;
-  for (int i = 0; i < argc; ++i) {
-    std::string arg = argv[i];
-    resumes = resumes || arg == "--resume";
-    std::string quoted = "'";
-    for (char c : arg) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    command += (i ? " " : "") + quoted + "'";
-  }
-  return resumes ? command : command + " --resume";
+std::string resume_command() {
+  const std::string command = nnb::bench::read_run_info().command_line;
+  return command.find("'--resume'") == std::string::npos ? command + " --resume" : command;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  nnb::bench::mark_run_start(argc, argv);
   CLI::App app{"Sweeps the maximal distance for every adapter, data set and query kind; writes JSON results."};
   Flags flags;
   app.add_option("--experiment", flags.experiment, "experiment name in bench/experiments/ or a JSON file")
@@ -172,7 +165,7 @@ int main(int argc, char** argv) {
     std::cerr << "run_sweep: wrote " << results.records().size() << " records to " << out << "\n";
     return 0;
   } catch (const Interrupted& e) {
-    std::cerr << "run_sweep: " << e.what() << "; finish with: " << resume_command(argc, argv) << "\n";
+    std::cerr << "run_sweep: " << e.what() << "; finish with: " << resume_command() << "\n";
     return 128 + nnb::files::interrupted();
   } catch (const nnb::InputError& e) {
     std::cerr << "run_sweep: error: " << e.what() << "\n";

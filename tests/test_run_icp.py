@@ -14,7 +14,7 @@ RUN_ICP, WORK = sys.argv[1], Path(sys.argv[2])
 # run_sweep's machine and build fields (tests/test_run_sweep.py checks the same ones there).
 CONTEXT = ["date", "host_name", "executable", "num_cpus", "mhz_per_cpu", "cpu_scaling_enabled", "caches", "load_avg",
            "library_build_type", "compiler", "flags", "build_type", "ndebug", "sanitizers", "git_commit",
-           "nnb_build_type"]
+           "nnb_build_type", "git_dirty", "command_line", "wall_seconds", "load_avg_after"]
 RECORD = ["name", "pair", "adapter", "icp_seconds", "build_seconds", "nns_seconds", "estimate_seconds",
           "iterations", "converged", "rms_m", "final_pose"]
 
@@ -40,6 +40,11 @@ context = doc.get("context", {})
 for field in CONTEXT:
     if field not in context:
         fail(f"context field '{field}' missing")
+# Provenance of the run itself: how it was started, how long it ran, whether the tree was modified.
+if not (isinstance(context["git_dirty"], bool) and "--adapter" in context["command_line"]
+        and isinstance(context["wall_seconds"], (int, float)) and context["wall_seconds"] >= 0
+        and isinstance(context["load_avg_after"], list)):
+    fail(f"run provenance: {context['git_dirty']!r} {context['command_line']!r} {context['wall_seconds']!r}")
 # What the machine exposes, which may be nothing (virtual machines without /sys cache entries).
 if not isinstance(context["caches"], list):
     fail(f"context.caches is not a list: {context['caches']!r}")

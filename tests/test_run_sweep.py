@@ -24,7 +24,8 @@ COMMON = {"name": str, "run_name": str, "run_type": str, "repetitions": int, "it
 SWEEP = {"query": str, "search": str, "strategy": str, "found": int, "neighbours": int, "dist_sum": (int, float)}
 BUILD = {"build_seconds": (int, float), "index_bytes": int, "n_points": int}
 CONTEXT = ["date", "host_name", "num_cpus", "mhz_per_cpu", "caches", "library_build_type", "compiler", "flags",
-           "build_type", "git_commit", "experiment", "config", "adapters", "datasets"]
+           "build_type", "git_commit", "git_dirty", "command_line", "wall_seconds", "load_avg", "load_avg_after",
+           "experiment", "config", "adapters", "datasets"]
 
 
 def fail(message):

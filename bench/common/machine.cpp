@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -88,11 +89,46 @@ std::vector<CacheInfo> read_cpuinfo_cache() {
   return {};
 }
 
+struct RunStart {
+  std::time_t wall = std::time(nullptr);
+  std::chrono::steady_clock::time_point steady = std::chrono::steady_clock::now();
+  std::string command_line;
+};
+
+RunStart& run_start() {
+  static RunStart start;
+  return start;
+}
+
+std::string shell_quoted(const std::string& word) {
+  std::string quoted = "'";
+  for (char c : word) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+std::vector<double> load_average() {
+  double load[3];
+  if (getloadavg(load, 3) != 3) return {};
+  return {load[0], load[1], load[2]};
+}
+
 }  // namespace
+
+void mark_run_start(int argc, char** argv) {
+  RunStart& start = run_start();
+  start = RunStart{};
+  for (int i = 0; i < argc; ++i) start.command_line += (i ? " " : "") + shell_quoted(argv[i]);
+}
+
+RunInfo read_run_info() {
+  const RunStart& start = run_start();
+  return {start.command_line, std::chrono::duration<double>(std::chrono::steady_clock::now() - start.steady).count(),
+          load_average()};
+}
 
 MachineInfo read_machine_info() {
   MachineInfo m;
-  const std::time_t now = std::time(nullptr);
+  const std::time_t now = run_start().wall;
   char date[64];
   std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%S%z", std::localtime(&now));
   m.date = date;
@@ -110,8 +146,7 @@ MachineInfo read_machine_info() {
   m.cpu_scaling_enabled = !governor.empty() && governor != "performance";
   m.caches = read_sys_caches();
   if (m.caches.empty()) m.caches = read_cpuinfo_cache();
-  double load[3];
-  if (getloadavg(load, 3) == 3) m.load_avg.assign(load, load + 3);
+  m.load_avg = load_average();
   return m;
 }
 

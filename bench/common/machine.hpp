@@ -34,7 +34,18 @@ struct BuildInfo {
   bool release() const { return ndebug && !sanitizers; }
 };
 
-/// Reads the machine's facts now (missing files leave fields empty).
+/// What a results file says about the run itself: how it was started, how long it has run, the load now.
+struct RunInfo {
+  std::string command_line;     ///< argv, each word quoted for a POSIX shell
+  double wall_seconds = 0.0;    ///< since mark_run_start()
+  std::vector<double> load_avg_now;
+};
+
+/// Marks the start of the run (the date of its results) and keeps its command line; call first in main.
+void mark_run_start(int argc, char** argv);
+/// The run so far.
+RunInfo read_run_info();
+/// Reads the machine's facts now (missing files leave fields empty); the date is the run's start.
 MachineInfo read_machine_info();
 /// The facts baked into this binary at configure time, plus the git commit read at run time.
 BuildInfo read_build_info();

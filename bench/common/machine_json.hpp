@@ -9,6 +9,14 @@
 
 namespace nnb::bench {
 
+/// The run's own provenance; rewritten at every checkpoint, so that the file always says how long the run
+/// took and the load at its end.
+inline void put_run(nlohmann::ordered_json& c, const RunInfo& run) {
+  c["command_line"] = run.command_line;
+  c["wall_seconds"] = run.wall_seconds;
+  c["load_avg_after"] = run.load_avg_now;
+}
+
 inline void put_machine_and_build(nlohmann::ordered_json& c, const MachineInfo& m, const BuildInfo& b,
                                   const std::string& executable) {
   c["date"] = m.date;
@@ -30,6 +38,10 @@ inline void put_machine_and_build(nlohmann::ordered_json& c, const MachineInfo& 
   c["ndebug"] = b.ndebug;
   c["sanitizers"] = b.sanitizers;
   c["git_commit"] = b.git_commit.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(b.git_commit);
+  const std::string dirty = "+dirty";
+  c["git_dirty"] = b.git_commit.size() >= dirty.size() &&
+                   b.git_commit.compare(b.git_commit.size() - dirty.size(), dirty.size(), dirty) == 0;
+  put_run(c, read_run_info());
 }
 
 }  // namespace nnb::bench

@@ -300,6 +300,7 @@ bool ResultsFile::checkpoint_due() const {
 }
 
 void ResultsFile::write() {
+  bench::put_run(json_->context, bench::read_run_info());
   std::string text = "{\n\"context\": " + json_->context.dump(2) + ",\n\"benchmarks\": [";
   for (std::size_t i = 0; i < serialised_.size(); ++i) (text += i ? ",\n" : "\n") += serialised_[i];
   text += "\n]\n}\n";
