@@ -291,7 +291,8 @@ TEST_P(EdgeCase, DeclaresItselfCompletely) {
 }
 
 TEST_P(EdgeCase, BucketParameterIsDeclaredAndAnswersExactlyAcrossItsRange) {
-  const auto& info = nnb::make_adapter(GetParam())->info();
+  const auto adapter = nnb::make_adapter(GetParam());
+  const auto& info = adapter->info();
   if (!info.bucket) return;  // the library fixes its leaf size
   const auto& bucket = *info.bucket;
   EXPECT_EQ(info.params.at(bucket.name), std::to_string(bucket.value));
