@@ -6,6 +6,7 @@
 // then refined by bisection: a run of the sorted points lies in the octree cell named by the common prefix
 // of its first and last codes, and is skipped when that cell is farther than the current k-th distance.
 // Distances are computed in double on a curve-ordered copy of the points.
+#include "nnb/best_k.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -23,7 +24,6 @@ constexpr int kMaxBits = 21;                 // three axes of 21 bits fill a 64-
 constexpr std::uint32_t kScanRun = 16;        // runs this short are scanned rather than bisected
 constexpr double kRelativePad = 1e-12;        // far above the few ulps quantisation and box edges can be off
 
-using Candidate = std::pair<double, PointIndex>;  // (squared distance m^2, index): ties go to the lower index
 
 struct Box {
   double lo[3];
@@ -122,35 +122,6 @@ class MortonGrid {
   std::uint32_t last_cell_ = 0;
 };
 
-// The k best candidates so far in a max-heap, with the squared radius beyond which nothing can enter:
-// the limit until the heap is full, then its worst entry.
-class BestK {
- public:
-  BestK(std::size_t k, double limit_sq_m2) : k_(k), limit_sq_m2_(limit_sq_m2) { heap_.reserve(k); }
-  double bound_sq_m2() const { return heap_.size() < k_ ? limit_sq_m2_ : heap_.front().first; }
-  void offer(double sq_m2, PointIndex index) {
-    if (sq_m2 > limit_sq_m2_) return;
-    const Candidate c{sq_m2, index};
-    if (heap_.size() < k_) {
-      heap_.push_back(c);
-      std::push_heap(heap_.begin(), heap_.end());
-    } else if (c < heap_.front()) {
-      std::pop_heap(heap_.begin(), heap_.end());
-      heap_.back() = c;
-      std::push_heap(heap_.begin(), heap_.end());
-    }
-  }
-  void write_sorted(Neighbours& out) {
-    std::sort_heap(heap_.begin(), heap_.end());
-    for (const auto& [sq, index] : heap_) out.push(index, sq);
-    out.end_query();
-  }
-
- private:
-  std::size_t k_;
-  double limit_sq_m2_;
-  std::vector<Candidate> heap_;
-};
 
 // Positions [begin, end) on the curve.
 struct Run {

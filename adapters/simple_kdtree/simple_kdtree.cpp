@@ -4,6 +4,7 @@
 // points, and the search recurses into the child on the query's side first, pruning a node when the
 // ball of the current search radius misses its bounding box (the ranged search of the paper's
 // Algorithms 2 and 3). Everything is double precision.
+#include "nnb/best_k.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -18,7 +19,6 @@ namespace {
 
 constexpr int kDefaultBucketSize = 20;  // slam6D's default bucket size
 
-using Candidate = std::pair<double, PointIndex>;  // (squared distance m^2, index): ties go to the lower index
 
 struct Box {
   double lo[3];
@@ -44,35 +44,6 @@ struct Node {
   bool is_leaf() const { return axis < 0; }
 };
 
-// The k best candidates so far in a max-heap, with the squared radius beyond which nothing can enter:
-// the limit until the heap is full, then its worst entry.
-class BestK {
- public:
-  BestK(std::size_t k, double limit_sq_m2) : k_(k), limit_sq_m2_(limit_sq_m2) { heap_.reserve(k); }
-  double bound_sq_m2() const { return heap_.size() < k_ ? limit_sq_m2_ : heap_.front().first; }
-  void offer(double sq_m2, PointIndex index) {
-    if (sq_m2 > limit_sq_m2_) return;
-    const Candidate c{sq_m2, index};
-    if (heap_.size() < k_) {
-      heap_.push_back(c);
-      std::push_heap(heap_.begin(), heap_.end());
-    } else if (c < heap_.front()) {
-      std::pop_heap(heap_.begin(), heap_.end());
-      heap_.back() = c;
-      std::push_heap(heap_.begin(), heap_.end());
-    }
-  }
-  void write_sorted(Neighbours& out) {
-    std::sort_heap(heap_.begin(), heap_.end());
-    for (const auto& [sq, index] : heap_) out.push(index, sq);
-    out.end_query();
-  }
-
- private:
-  std::size_t k_;
-  double limit_sq_m2_;
-  std::vector<Candidate> heap_;
-};
 
 class SimpleKdTree final : public SearchIndex {
  public:
