@@ -44,7 +44,8 @@ nnb::Cloud every_nth(const nnb::Cloud& cloud, std::size_t stride) {
   return out;
 }
 
-std::string label_of(const std::string& spec) {
+// How a pair is named in records: a pair or shape by its name, a file by its stem.
+std::string pair_label(const std::string& spec) {
   if (ds::find_pair(spec) || !std::filesystem::exists(spec)) return spec;
   return std::filesystem::path(spec).stem().string();
 }
@@ -54,7 +55,7 @@ std::string label_of(const std::string& spec) {
 Input load_input(const std::string& model_spec, const std::string& query_spec, const ds::DataOptions& options,
                  std::size_t query_stride) {
   Input in;
-  in.label = model_spec == query_spec ? label_of(model_spec) : label_of(model_spec) + "+" + label_of(query_spec);
+  in.label = model_spec == query_spec ? pair_label(model_spec) : pair_label(model_spec) + "+" + pair_label(query_spec);
   if (const auto pair = ds::find_pair(model_spec)) {
     in.model = ds::load_pair_scan(*pair, ds::Role::model, options).points;
   } else {
@@ -148,12 +149,7 @@ std::string context_json(const std::string& experiment, const ds::DataOptions& d
   return c.str();
 }
 
-std::string experiment_path(const std::string& name) {
-  if (std::filesystem::exists(name)) return name;
-  const std::string path = std::string(NNB_EXPERIMENTS_DIR) + "/" + name + ".json";
-  if (!std::filesystem::exists(path)) throw InputError("no experiment '" + name + "' (looked for " + path + ")");
-  return path;
-}
+std::string experiment_path(const std::string& name) { return nnb::files::experiment_path(name, NNB_EXPERIMENTS_DIR); }
 
 std::vector<std::string> adapters_of(const icp::Experiment& e) {
   std::vector<std::string> names = e.adapters.empty() ? nnb::adapter_names() : e.adapters;

@@ -41,7 +41,7 @@ struct Flags {
 };
 
 Experiment configure(const Flags& flags, const std::vector<std::string>& all_adapters, const std::string& source_dir) {
-  Experiment e = load_experiment(experiment_path(flags.experiment, source_dir + "/bench/experiments"), all_adapters);
+  Experiment e = load_experiment(nnb::files::experiment_path(flags.experiment, source_dir + "/bench/experiments"), all_adapters);
   if (!flags.adapters.empty()) {
     e.adapters = split_list(flags.adapters);
     if (e.adapters.empty()) throw nnb::InputError("--adapters: no adapter given");

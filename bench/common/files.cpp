@@ -108,6 +108,13 @@ OutputLock::~OutputLock() {
   ::close(fd_);
 }
 
+std::string experiment_path(const std::string& name_or_file, const std::string& experiments_dir) {
+  const fs::path by_name = fs::path(experiments_dir) / (name_or_file + ".json");
+  if (name_or_file.find('/') == std::string::npos && fs::is_regular_file(by_name)) return by_name.string();
+  if (fs::is_regular_file(name_or_file)) return name_or_file;
+  throw InputError("--experiment: '" + name_or_file + "' is neither a file nor an experiment in " + experiments_dir);
+}
+
 void catch_interrupts() {
   struct sigaction action {};
   action.sa_handler = on_interrupt;

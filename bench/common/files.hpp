@@ -33,6 +33,9 @@ class OutputLock {
   int fd_ = -1;
 };
 
+/// The experiment file for a name (experiments_dir/NAME.json) or a path; InputError when it is neither.
+std::string experiment_path(const std::string& name_or_file, const std::string& experiments_dir);
+
 /// SIGINT and SIGTERM set a flag instead of killing the process, so that the current checkpoint is
 /// finished; the program polls interrupted() between cells and stops cleanly.
 void catch_interrupts();

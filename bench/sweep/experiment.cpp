@@ -118,14 +118,6 @@ std::vector<DataPair> parse_datasets(const std::string& text) {
   return pairs;
 }
 
-std::string experiment_path(const std::string& name_or_file, const std::string& experiments_dir) {
-  namespace fs = std::filesystem;
-  const fs::path by_name = fs::path(experiments_dir) / (name_or_file + ".json");
-  if (name_or_file.find('/') == std::string::npos && fs::is_regular_file(by_name)) return by_name.string();
-  if (fs::is_regular_file(name_or_file)) return name_or_file;
-  throw InputError("--experiment: '" + name_or_file + "' is neither a file nor an experiment in " + experiments_dir);
-}
-
 Experiment load_experiment(const std::string& path, const std::vector<std::string>& all_adapters) {
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot read the experiment file");

@@ -52,8 +52,6 @@ struct Experiment {
   double cell_timeout_s = 1800.0;   ///< a library that finishes no cell (or build) for this long is killed
 };
 
-/// The experiment file for a name (experiments_dir/NAME.json) or a path; throws InputError if unreadable.
-std::string experiment_path(const std::string& name_or_file, const std::string& experiments_dir);
 /// Reads an experiment file; "adapters": "all" expands to all_adapters. Throws InputError with one line.
 Experiment load_experiment(const std::string& path, const std::vector<std::string>& all_adapters);
 /// Parses "start:stop:step" in metres; throws InputError for a malformed text.

@@ -39,7 +39,7 @@ struct Group {
 };
 
 // Cell names use the spec with '/' replaced, so that a file path stays one name component.
-std::string label_of(const std::string& spec) {
+std::string name_component(const std::string& spec) {
   std::string label = spec;
   std::replace(label.begin(), label.end(), '/', '_');
   return label;
@@ -58,7 +58,7 @@ std::string seconds_text(double s) {
 }
 
 std::vector<Group> groups_for(const Experiment& e, const DataPair& pair, const PlannedAdapter& adapter) {
-  const std::string prefix = "sweep/" + label_of(pair.model) + "/" + label_of(pair.query) + "/" + adapter.name + "/";
+  const std::string prefix = "sweep/" + name_component(pair.model) + "/" + name_component(pair.query) + "/" + adapter.name + "/";
   const auto dists = e.dists.values();
   const int decimals = e.dists.decimals();
   std::vector<Group> groups;
@@ -95,7 +95,7 @@ std::vector<std::string> distinct_models(const Experiment& e) {
 }
 
 std::string build_name(const std::string& model, const std::string& adapter) {
-  return "build/" + label_of(model) + "/" + adapter;
+  return "build/" + name_component(model) + "/" + adapter;
 }
 
 TimeStats stats_of(std::vector<double> samples) {
@@ -125,9 +125,10 @@ double cpu_now_s() {
 class Agreement {
  public:
   static std::string key(const Record& r) {
-    const auto slash = r.name.rfind('/');
+    std::ostringstream dist;
+    if (r.max_dist_m) dist << std::setprecision(17) << *r.max_dist_m;
     return r.model + "|" + r.query + "|" + r.search + "|" + (r.k ? std::to_string(*r.k) : "-") + "|" +
-           (r.max_dist_m ? r.name.substr(slash + 1) : "-");
+           (r.max_dist_m ? dist.str() : "-");
   }
   void remember(const Record& r) {
     if (r.type == Record::Type::sweep && r.exact && r.skipped.empty()) reference_.emplace(key(r), r);
