@@ -142,11 +142,8 @@ void print_summary(std::ostream& out, const icp::Record& rec, bool per_iteration
   }
 }
 
-std::string context_json(const std::string& experiment, const ds::DataOptions& data) {
-  std::ostringstream c;  // strings here are names and paths without quotes or backslashes
-  c << "{\"nnb_program\": \"run_icp\", \"nnb_experiment\": \"" << experiment << "\", \"nnb_data_dir\": \""
-    << (data.data_dir.empty() ? ds::default_data_dir() : data.data_dir) << "\"}";
-  return c.str();
+icp::RunContext run_context(const std::string& experiment, const ds::DataOptions& data) {
+  return {experiment, data.data_dir.empty() ? ds::default_data_dir() : data.data_dir};
 }
 
 std::string experiment_path(const std::string& name) { return nnb::files::experiment_path(name, NNB_EXPERIMENTS_DIR); }
@@ -205,7 +202,7 @@ int run_experiment(const std::string& name, std::string out_path, const ds::Data
           print_summary(std::cout, rec, false);
           records.push_back(std::move(rec));
           nnb::files::write_file_atomically(out_path, icp::results_json(records, nnb::cli::build_type(),
-                                                                      context_json(e.name, data)));
+                                                                      run_context(e.name, data)));
         }
       }
     }
@@ -268,7 +265,7 @@ int main(int argc, char** argv) {
                              options_of(s, icp::checked_rigid(in.initial, "the initial pose " + initial_file)),
                              s.query_stride, 0);
     print_summary(std::cout, rec, true);
-    nnb::files::write_file_atomically(out_path, icp::results_json({rec}, nnb::cli::build_type(), context_json("", data)));
+    nnb::files::write_file_atomically(out_path, icp::results_json({rec}, nnb::cli::build_type(), run_context("", data)));
     std::cout << "written " << out_path << "\n";
     return rec.result.failure.empty() ? 0 : 3;
   });

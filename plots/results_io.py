@@ -259,7 +259,7 @@ def _median_of_repetitions(runs):
 
 
 def experiment_of(context):
-    """The experiment's name: run_sweep writes `experiment`, run_icp `nnb_experiment`."""
+    """The experiment's name (`experiment`; ICP files made before it was written so say `nnb_experiment`)."""
     return context.get("experiment") or context.get("nnb_experiment")
 
 

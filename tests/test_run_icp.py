@@ -14,7 +14,7 @@ RUN_ICP, WORK = sys.argv[1], Path(sys.argv[2])
 # run_sweep's machine and build fields (tests/test_run_sweep.py checks the same ones there).
 CONTEXT = ["date", "host_name", "executable", "num_cpus", "mhz_per_cpu", "cpu_scaling_enabled", "caches", "load_avg",
            "library_build_type", "compiler", "flags", "build_type", "ndebug", "sanitizers", "git_commit",
-           "nnb_build_type", "git_dirty", "command_line", "wall_seconds", "load_avg_after"]
+           "nnb_build_type", "experiment", "data_dir", "git_dirty", "command_line", "wall_seconds", "load_avg_after"]
 RECORD = ["name", "pair", "adapter", "icp_seconds", "build_seconds", "nns_seconds", "estimate_seconds",
           "iterations", "converged", "rms_m", "final_pose"]
 

@@ -106,14 +106,11 @@ std::optional<double> reference_rotation_error_deg(const Record& record) {
   return rotation_angle_rad(record.reference->inverse() * record.result.pose) * 180.0 / 3.14159265358979323846;
 }
 
-std::string results_json(const std::vector<Record>& records, const std::string& build_type,
-                         const std::string& extra_context_json) {
+std::string results_json(const std::vector<Record>& records, const std::string& build_type, const RunContext& run) {
   ordered_json doc;
   doc["context"] = machine_context(build_type);
-  if (!extra_context_json.empty()) {
-    const ordered_json extra = ordered_json::parse(extra_context_json);
-    for (const auto& [key, value] : extra.items()) doc["context"][key] = value;
-  }
+  doc["context"]["experiment"] = run.experiment;  // the field name run_sweep's files use
+  doc["context"]["data_dir"] = run.data_dir;
   doc["benchmarks"] = ordered_json::array();
   for (const auto& rec : records) doc["benchmarks"].push_back(record_json(rec));
   return doc.dump(2) + "\n";

@@ -36,8 +36,14 @@ std::optional<double> reference_translation_error_m(const Record& record);
 /// Rotation error against the reference in degrees (nothing without a reference).
 std::optional<double> reference_rotation_error_deg(const Record& record);
 
-/// The whole results file as JSON text; extra_context is merged into context (a JSON object text or "").
-std::string results_json(const std::vector<Record>& records, const std::string& build_type,
-                         const std::string& extra_context_json);
+/// What the context says of the run beyond the machine and build: the experiment ("" for a single run)
+/// and the real scan folder used.
+struct RunContext {
+  std::string experiment;
+  std::string data_dir;
+};
+
+/// The whole results file as JSON text.
+std::string results_json(const std::vector<Record>& records, const std::string& build_type, const RunContext& run);
 
 }  // namespace nnb::icp
