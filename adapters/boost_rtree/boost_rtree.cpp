@@ -228,9 +228,9 @@ class BoostRTree final : public SearchIndex {
                    std::back_inserter(found));
     }
     std::vector<Candidate> rows = exact_sorted(found, query);
-    // Fewer than asked for: every candidate was found. Otherwise whatever was left out lies at least
-    // about as far as the last one found, which is harmless unless it may tie with the k-th.
-    if (rows.size() < fetch || rows[k].first * (1.0 - kTieMargin) > rows[k - 1].first) return rows;
+    // At most k: every candidate was found (the model or the box held no more). Otherwise whatever was
+    // left out lies at least about as far as the (k+1)-th, which is harmless unless it may tie the k-th.
+    if (rows.size() <= k || rows[k].first * (1.0 - kTieMargin) > rows[k - 1].first) return rows;
     return rows_within(query, std::min(rows[k - 1].first, max_dist_m * max_dist_m), found);
   }
 
