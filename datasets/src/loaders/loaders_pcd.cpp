@@ -168,7 +168,7 @@ bool parse_pcd_value(const char*& p, const char* end, char type, char size, doub
     long long v = 0;
     r = std::from_chars(q, end, v);
     const int bits = 8 * (size - '0');
-    const long long lo = type == 'U' ? 0 : -(1ll << (bits - 1));
+    const long long lo = type == 'U' ? 0 : (bits == 64 ? LLONG_MIN : -(1ll << (bits - 1)));
     const long long hi = type == 'U' ? (bits == 64 ? LLONG_MAX : (1ll << bits) - 1) : (bits == 64 ? LLONG_MAX : (1ll << (bits - 1)) - 1);
     if (r.ec == std::errc() && (v < lo || v > hi)) r.ec = std::errc::result_out_of_range;
     out = static_cast<double>(v);
