@@ -7,6 +7,7 @@
 // of its first and last codes, and is skipped when that cell is farther than the current k-th distance.
 // Distances are computed in double on a curve-ordered copy of the points.
 #include "nnb/best_k.hpp"
+#include "nnb/box.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -24,21 +25,6 @@ constexpr int kMaxBits = 21;                 // three axes of 21 bits fill a 64-
 constexpr std::uint32_t kScanRun = 16;        // runs this short are scanned rather than bisected
 constexpr double kRelativePad = 1e-12;        // far above the few ulps quantisation and box edges can be off
 
-
-struct Box {
-  double lo[3];
-  double hi[3];
-};
-
-// Squared distance from the query to the box, 0 inside, summed in sq_dist_m2's order: for a point inside
-// the box it never exceeds the point's computed distance, as rounding is monotone.
-double sq_dist_to_box_m2(const double* q, const Box& box) {
-  double d[3];
-  for (int a = 0; a < 3; ++a) {
-    d[a] = q[a] < box.lo[a] ? box.lo[a] - q[a] : (q[a] > box.hi[a] ? q[a] - box.hi[a] : 0.0);
-  }
-  return d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-}
 
 // Puts the low 21 bits of x on every third bit, from bit 0 up.
 std::uint64_t spread_bits(std::uint64_t x) {

@@ -5,6 +5,7 @@
 // ball of the current search radius misses its bounding box (the ranged search of the paper's
 // Algorithms 2 and 3). Everything is double precision.
 #include "nnb/best_k.hpp"
+#include "nnb/box.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -19,21 +20,6 @@ namespace {
 
 constexpr int kDefaultBucketSize = 20;  // slam6D's default bucket size
 
-
-struct Box {
-  double lo[3];
-  double hi[3];
-};
-
-// Squared distance from the query to the box, 0 inside. It is summed in sq_dist_m2's order, and rounding
-// is monotone, so it never exceeds the computed distance of a point in the box: pruning by it is exact.
-double sq_dist_to_box_m2(const double* q, const Box& box) {
-  double d[3];
-  for (int a = 0; a < 3; ++a) {
-    d[a] = q[a] < box.lo[a] ? box.lo[a] - q[a] : (q[a] > box.hi[a] ? q[a] - box.hi[a] : 0.0);
-  }
-  return d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-}
 
 struct Node {
   Box box;                          // tight bounds of the node's points
