@@ -8,6 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 experiment="${EXPERIMENT:-quick}"
 ./scripts/install_deps.sh
+. scripts/anchors.sh
 cmake --preset release
 cmake --build --preset release -j "$(nproc 2>/dev/null || echo 2)"
 

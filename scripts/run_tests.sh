@@ -4,6 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
+. scripts/anchors.sh
 jobs=$(nproc 2>/dev/null || echo 2)
 for preset in release sanitize; do
   echo "=== ${preset}: configure, build, test ==="
