@@ -16,31 +16,13 @@ import fig_scale  # noqa: E402
 import findings  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
-from table1 import STRATEGY_CELL  # noqa: E402
+from table1 import table1_lines  # noqa: E402
 
 README = results_io.REPO_ROOT / "README.md"
 BLOCK = re.compile(r"(<!-- generated: (?P<name>[a-z0-9_]+) -->\n)(?P<body>.*?)(<!-- end -->)", re.S)
 MICRO_TARGETS = (("ours_kdtree", "nanoflann_kdtree", 1.5, "kdtree"), ("ours_octree", "pcl_octree", 2.0, "octree"))
 MICRO_PAIRS = {"fig3": "Figure 3 (hollow cube -> hollow sphere)", "sick": "SICK office, queries in scan order",
                "sick_shuffled": "SICK office, queries shuffled (no target)"}
-
-
-def _params(params):
-    return ", ".join(f"{k}={v}" for k, v in sorted((params or {}).items()))
-
-
-def table1_lines(results):
-    lines = ["| adapter | library | version | data structure | precision | k-NN | fixed radius | ranged | exact | parameters |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
-    for name in sorted(results.adapters):
-        i = results.adapters[name]
-        kinds = [STRATEGY_CELL.get(i.get(k), "no" if i.get(k) == "unsupported" else str(i.get(k, "?")))
-                 for k in ("knn", "radius", "ranged")]
-        exact = "yes" if i.get("exact") is not False else "**no (approximate)**"
-        cells = [name, i.get("library", "?"), str(i.get("version", "?")), i.get("structure", "?"),
-                 i.get("scalar", "?"), *kinds, exact, _params(i.get("params"))]
-        lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |")
-    return lines
 
 
 def icp_lines(results, shown=3):

@@ -18,7 +18,7 @@ import fig_speedup  # noqa: E402
 import fig_sweep  # noqa: E402
 import findings  # noqa: E402
 import provenance  # noqa: E402
-import readme_tables  # noqa: E402
+from table1 import table1_lines  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
 
@@ -232,7 +232,7 @@ def render(results, plotly_js, check=None):
         for fig in section_figs:
             body.append(f"<div class=plot id='plot-{len(figs)}'></div>")
             figs.append(fig)
-    table1 = md_table_html(readme_tables.table1_lines(results)) if results.adapters else "<p>no adapter metadata</p>"
+    table1 = md_table_html(table1_lines(results)) if results.adapters else "<p>no adapter metadata</p>"
     adapters = "".join(adapter_html(results, a) for a in sorted(results.adapters))
     nav = "".join(f"<a href='#{s}'>{s}</a>" for s in ("figures", "table1", "findings", "machine", "adapters"))
     return f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>nns-bench report</title>

@@ -1,22 +1,35 @@
-"""Table 1: what each adapter's library offers, and how each search kind is answered."""
-import json
-
+"""Table 1: what each adapter's library offers, and how each search kind is answered. The one generator of
+the table from results files: table1.md beside the figures, the README's copy and the report use it."""
 from results_io import warn
+from style import STRATEGY_TEXT
 
-STRATEGY_CELL = {"native": "native", "via_knn": "via k-NN", "via_radius": "via radius", "via_box": "via box"}
-HEADER = ("| adapter | library | version | data structure | k-NN | fixed radius | ranged | exact | parameters |\n"
-          "|---|---|---|---|---|---|---|---|---|\n")
+HEADER = ["| adapter | library | version | data structure | precision | k-NN | fixed radius | ranged | exact | parameters |",
+          "|---|---|---|---|---|---|---|---|---|---|"]
 
 
-def _cell(value):
-    if value is None or value == "":
-        return "?"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, dict):
-        return ", ".join(f"{k}={v}" for k, v in sorted(value.items())) or "-"
-    text = STRATEGY_CELL.get(value, str(value)) if isinstance(value, str) else json.dumps(value)
-    return text.replace("|", "\\|")
+def _strategy(value):
+    if value == "unsupported":
+        return "no"
+    return STRATEGY_TEXT.get(value, "?" if value in (None, "") else str(value))
+
+
+def _params(params):
+    return ", ".join(f"{k}={v}" for k, v in sorted((params or {}).items())) or "-"
+
+
+def table1_lines(results):
+    """The table's Markdown lines, one row per adapter in the results' metadata."""
+    lines = list(HEADER)
+    for name in sorted(results.adapters):
+        info = results.adapters[name]
+        if not info.get("library"):
+            warn(f"table1: adapter {name} has no library metadata; shown with '?'")
+        exact = "yes" if info.get("exact") is not False else "**no (approximate)**"
+        cells = [name, info.get("library") or "?", str(info.get("version") or "?"), info.get("structure") or "?",
+                 info.get("scalar") or "?", *(_strategy(info.get(k)) for k in ("knn", "radius", "ranged")),
+                 exact, _params(info.get("params"))]
+        lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |")
+    return lines
 
 
 def write_table1(results, out_dir):
@@ -24,18 +37,11 @@ def write_table1(results, out_dir):
     if not results.adapters:
         warn("table1: no adapter metadata in the results: table skipped")
         return None
-    rows = []
-    for name in sorted(results.adapters):
-        info = results.adapters[name]
-        if not info.get("library"):
-            warn(f"table1: adapter {name} has no library metadata; shown with '?'")
-        rows.append("| " + " | ".join([name] + [_cell(info.get(k)) for k in
-                                                 ("library", "version", "structure", "knn", "radius", "ranged",
-                                                  "exact", "params")]) + " |")
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "table1.md"
     path.write_text("# Table 1: libraries and how each search kind is answered\n\n"
                     "native: the library's own search; via k-NN / via radius / via box: emulated on top of that "
-                    "search and filtered by distance; ?: not recorded.\n\n" + HEADER + "\n".join(rows) + "\n")
+                    "search and filtered by distance; no: not offered; ?: not recorded.\n\n"
+                    + "\n".join(table1_lines(results)) + "\n")
     print(f"wrote {path}")
     return path
