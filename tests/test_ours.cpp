@@ -337,7 +337,7 @@ void check_descent_reuse(const Cloud& model, int bucket, int k, double limit_sq_
   for (Eigen::Index i = 0; i < near.cols(); ++i) near.col(i) += Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng));
   const Cloud scan = in_scan_order(near);
   const Cloud random = queries_for(model, 2.0, 2000);
-  ours::SearchBuffers<T> batch_buffers, single_buffers;
+  typename ours::KdTree<T>::Buffers batch_buffers, single_buffers;
   for (const Cloud* queries : {&scan, &random}) {
     const std::size_t n = static_cast<std::size_t>(queries->cols());
     std::size_t differ = 0;

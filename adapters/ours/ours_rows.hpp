@@ -20,7 +20,7 @@ template <typename T, class Tree>
 void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, double limit_sq_m2,
             Neighbours& out) {
   out.reset(static_cast<std::size_t>(queries.cols()), static_cast<std::size_t>(queries.cols()));
-  ours::SearchBuffers<T> buffers;
+  typename Tree::Buffers buffers;
   std::vector<std::pair<double, PointIndex>> row;
   tree.knn_batch(queries.data(), static_cast<std::size_t>(queries.cols()), k, limit_sq_m2, buffers,
                  [&](std::size_t q, const std::vector<ours::Neighbour<T>>& best) {
@@ -46,7 +46,7 @@ template <typename T, class Tree>
 void radius(const Tree& tree, const Cloud& model, const Cloud& queries, double radius_m, Neighbours& out) {
   const double limit_sq_m2 = radius_m * radius_m;
   out.reset(static_cast<std::size_t>(queries.cols()));
-  ours::SearchBuffers<T> buffers;
+  typename Tree::Buffers buffers;
   for (Eigen::Index q = 0; q < queries.cols(); ++q) {
     const double* query = queries.col(q).data();
     tree.radius(query, limit_sq_m2, buffers);

@@ -27,7 +27,7 @@ int main() {
 
   ours::KdTree<double> tree;
   tree.build(model.data(), static_cast<std::size_t>(model.cols()), 16);
-  ours::SearchBuffers<double> buffers;
+  ours::KdTree<double>::Buffers buffers;
   for (Eigen::Index q = 0; q < queries.cols(); ++q) {
     tree.knn(queries.col(q).data(), k, max_dist_m * max_dist_m, buffers);
     const auto first = expected.offsets[static_cast<std::size_t>(q)];

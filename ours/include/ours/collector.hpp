@@ -1,7 +1,7 @@
 #pragma once
 // What the k-d tree and the octree share: candidates, the k-best collectors (a linear heap for small
 // k, a binary heap for large k, as libnabo), the error model that makes a float search safe, and the
-// per-caller buffers (one SearchBuffers serves either tree, so it also holds the k-d tree's stack).
+// per-caller buffers of the answer.
 //
 // Exactness. Both trees compute distances in their scalar T. With T = double and no origin shift the
 // distance of a point is computed exactly as nnb::sq_dist_m2, so the answer is the exact answer. With
@@ -118,31 +118,12 @@ struct Neighbour {
   std::uint32_t index;
 };
 
-/// A cell the k-d tree search has still to visit: its node, squared distance (m^2) and per-axis offsets.
-template <typename T>
-struct PendingCell {
-  std::array<T, 3> offsets;
-  T sq_dist;
-  std::uint32_t node;
-};
-
-/// One split node on the k-d tree's first descent of a query, kept for the next query.
-template <typename T>
-struct DescentStep {
-  T plane;             ///< the split plane (T, tree coordinates)
-  std::uint32_t node;  ///< the split node
-  std::uint32_t far;   ///< its child the query did not descend into
-  std::uint32_t dim;   ///< the split axis
-  bool right;          ///< whether the query went to the right child (coordinate > plane)
-};
-
-/// Reusable per-caller buffers, so that a batch of queries allocates nothing per query.
+/// Reusable per-caller buffers, so that a batch of queries allocates nothing per query. A tree that needs
+/// more scratch derives its own (Tree::Buffers).
 template <typename T>
 struct SearchBuffers {
-  std::vector<Neighbour<T>> best;       ///< the k best so far
-  std::vector<Neighbour<T>> extras;     ///< float only: near misses that may still belong to the answer
-  std::vector<PendingCell<T>> pending;  ///< the k-d tree's explicit stack (one entry per level at most)
-  std::vector<DescentStep<T>> path;     ///< the k-d tree's last first descent (one entry per level)
+  std::vector<Neighbour<T>> best;    ///< the k best so far
+  std::vector<Neighbour<T>> extras;  ///< float only: near misses that may still belong to the answer
 };
 
 /// Linear heaps pay O(k) per insertion with a tiny constant; the paper found them faster up to k = 30.

@@ -33,11 +33,39 @@
 
 namespace ours {
 
+/// A cell the k-d tree search has still to visit: its node, squared distance (m^2) and per-axis offsets.
+template <typename T>
+struct PendingCell {
+  std::array<T, 3> offsets;
+  T sq_dist;
+  std::uint32_t node;
+};
+
+/// One split node on the k-d tree's first descent of a query, kept for the next query.
+template <typename T>
+struct DescentStep {
+  T plane;             ///< the split plane (T, tree coordinates)
+  std::uint32_t node;  ///< the split node
+  std::uint32_t far;   ///< its child the query did not descend into
+  std::uint32_t dim;   ///< the split axis
+  bool right;          ///< whether the query went to the right child (coordinate > plane)
+};
+
+/// The k-d tree's per-caller buffers: the answer, plus its explicit stack and its last first descent.
+template <typename T>
+struct KdTreeBuffers : SearchBuffers<T> {
+  std::vector<PendingCell<T>> pending;  ///< the explicit stack (one entry per level at most)
+  std::vector<DescentStep<T>> path;     ///< the last first descent (one entry per level)
+};
+
 template <typename T>
 class KdTree {
   static_assert(std::is_same_v<T, float> || std::is_same_v<T, double>, "KdTree<float> or KdTree<double>");
 
  public:
+  /// What a caller keeps between queries (one per thread).
+  using Buffers = KdTreeBuffers<T>;
+
   struct Node {
     std::uint32_t word;
     union {
@@ -108,7 +136,7 @@ class KdTree {
 
   /// Returns the k nearest points within sq(max distance) limit_sq_m2 (m^2; infinity for plain k-NN),
   /// into buffers.best, nearest first. Float trees return a superset (see collector.hpp).
-  void knn(const double* query, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+  void knn(const double* query, int k, double limit_sq_m2, Buffers& buffers) const {
     knn_batch(query, 1, k, limit_sq_m2, buffers, [](std::size_t, const std::vector<Neighbour<T>>&) {});
   }
 
@@ -122,7 +150,7 @@ class KdTree {
   /// previous leaf's cell scans that leaf at once and stops there when its ball lies inside the cell.
   /// Returns how many queries took the second way.
   template <class Emit>
-  std::size_t knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
+  std::size_t knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, Buffers& buffers,
                         Emit&& emit) const {
     if (n_ == 0 || k < 1) {
       buffers.best.clear();
@@ -173,7 +201,7 @@ class KdTree {
 
   /// Returns every point within sq(radius) limit_sq_m2 (m^2) in buffers.best, in tree order
   /// (float trees: a superset, see collector.hpp).
-  void radius(const double* query, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+  void radius(const double* query, double limit_sq_m2, Buffers& buffers) const {
     buffers.best.clear();
     if (n_ == 0) return;
     const std::size_t stride = max_depth_ + 2;
@@ -364,7 +392,7 @@ class KdTree {
   // recorded planes, and the descent goes on from that node and is recorded. Returns whether the query
   // lay in the previous leaf.
   template <class Collect>
-  bool search_after_last(const Query& q, Collect& collect, SearchBuffers<T>& buffers, LastDescent& last) const {
+  bool search_after_last(const Query& q, Collect& collect, Buffers& buffers, LastDescent& last) const {
     DescentStep<T>* const path = buffers.path.data();
     PendingCell<T>* const bottom = buffers.pending.data();
     PendingCell<T>* top = bottom;

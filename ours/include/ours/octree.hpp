@@ -41,6 +41,9 @@ class Octree {
   static_assert(std::is_same_v<T, float> || std::is_same_v<T, double>, "Octree<float> or Octree<double>");
 
  public:
+  /// What a caller keeps between queries (one per thread).
+  using Buffers = SearchBuffers<T>;
+
   /// Integer coordinates have this many bits per axis: the deepest possible level.
   static constexpr int kMaxLevel = 20;
 
@@ -107,13 +110,13 @@ class Octree {
 
   /// Returns the k nearest points within sq(max distance) limit_sq_m2 (m^2; infinity for plain k-NN),
   /// into buffers.best, nearest first. Float trees return a superset (see collector.hpp).
-  void knn(const double* query, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+  void knn(const double* query, int k, double limit_sq_m2, Buffers& buffers) const {
     knn_batch(query, 1, k, limit_sq_m2, buffers, [](std::size_t, const std::vector<Neighbour<T>>&) {});
   }
 
   /// For each of n queries (x,y,z triples, metres) calls emit(i, buffers.best) with what knn() returns.
   template <class Emit>
-  void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, SearchBuffers<T>& buffers,
+  void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, Buffers& buffers,
                  Emit&& emit) const {
     OwnPath own;  // each query's path starts from the previous one's (see follow_own_path)
     for (std::size_t i = 0; i < n; ++i) {
@@ -126,7 +129,7 @@ class Octree {
 
   /// Returns every point within sq(radius) limit_sq_m2 (m^2) in buffers.best, in tree order
   /// (float trees: a superset, see collector.hpp).
-  void radius(const double* query, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+  void radius(const double* query, double limit_sq_m2, Buffers& buffers) const {
     buffers.best.clear();
     if (n_ == 0) return;
     const Query q = make_query(query);
@@ -283,7 +286,7 @@ class Octree {
     std::array<std::uint32_t, 3> cell{};  ///< the integer coordinate it leads to
   };
 
-  void knn_one(const Query& q, const OwnPath& own, int k, double limit_sq_m2, SearchBuffers<T>& buffers) const {
+  void knn_one(const Query& q, const OwnPath& own, int k, double limit_sq_m2, Buffers& buffers) const {
     if (n_ == 0 || k < 1) {
       buffers.best.clear();
       buffers.extras.clear();
