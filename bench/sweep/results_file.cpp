@@ -3,6 +3,7 @@
 
 #include "files.hpp"
 #include "isolation.hpp"
+#include "json_whole.hpp"
 #include "machine_json.hpp"
 #include "nnb/cloud.hpp"
 
@@ -16,6 +17,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <unistd.h>
 
@@ -171,6 +173,18 @@ ordered_json to_json(const Record& r) {
   return j;
 }
 
+// A count or size read back as a whole number within Int's range: a file may hold 1e30, 2.5 or -1 there,
+// which get<Int>() would wrap or cast with undefined behaviour.
+template <class Int>
+Int whole(const json& j, const char* key) {
+  return bench::whole_number<Int>(j.at(key), key);
+}
+
+template <class Int>
+Int whole_or(const json& j, const char* key, Int fallback) {
+  return j.contains(key) ? whole<Int>(j, key) : fallback;
+}
+
 TimeStats get_stats(const json& j, const std::string& p) {
   return {read_number(j.at(p + "median_s")), read_number(j.at(p + "mean_s")), read_number(j.at(p + "min_s")),
           read_number(j.at(p + "stddev_s"))};
@@ -183,26 +197,26 @@ Record from_json(const json& j) {
   r.model = j.at("model").get<std::string>();
   r.adapter = j.at("adapter").get<std::string>();
   r.exact = j.at("exact").get<bool>();
-  r.repetitions = j.at("repetitions").get<int>();
+  r.repetitions = whole<int>(j, "repetitions");
   r.wall = get_stats(j, "");
   r.cpu = get_stats(j, "cpu_");
   if (j.contains("skipped")) r.skipped = j["skipped"].get<std::string>();
-  r.n_points = j.value("n_points", std::size_t{0});  // sweep records of older files lack it
+  r.n_points = whole_or<std::size_t>(j, "n_points", 0);  // sweep records of older files lack it
   r.skips_larger = j.value("skips_larger_models", std::string());
   if (r.type == Record::Type::build) {
-    r.index_bytes = j.at("index_bytes").get<std::size_t>();
-    r.n_points = j.at("n_points").get<std::size_t>();
-    r.build_peak_rss_bytes = j.value("build_peak_rss_bytes", std::size_t{0});
+    r.index_bytes = whole<std::size_t>(j, "index_bytes");
+    r.n_points = whole<std::size_t>(j, "n_points");
+    r.build_peak_rss_bytes = whole_or<std::size_t>(j, "build_peak_rss_bytes", 0);
     return r;
   }
-  r.n_queries = j.value("n_queries", std::size_t{0});
+  r.n_queries = whole_or<std::size_t>(j, "n_queries", 0);
   r.query = j.at("query").get<std::string>();
   r.search = j.at("search").get<std::string>();
   r.strategy = j.at("strategy").get<std::string>();
   if (j.contains("max_dist")) r.max_dist_m = j["max_dist"].get<double>();
-  if (j.contains("k")) r.k = j["k"].get<int>();
-  r.found = j.at("found").get<std::size_t>();
-  r.neighbours = j.at("neighbours").get<std::size_t>();
+  if (j.contains("k")) r.k = whole<int>(j, "k");
+  r.found = whole<std::size_t>(j, "found");
+  r.neighbours = whole<std::size_t>(j, "neighbours");
   r.dist_sum_m = read_number(j.at("dist_sum"));
   if (j.contains("agrees")) {
     r.agrees = j["agrees"].get<bool>();
@@ -233,18 +247,63 @@ ResultsFile::ResultsFile(std::string path, const RunDescription& run)
 
 ResultsFile::~ResultsFile() = default;
 
+namespace {
+
+// run_sweep's files nest six levels. A deeper document is refused while it is read: dump() and == recurse
+// once per level (a stack overflow at some ten thousand), and dump(2) indents each line by its depth, so
+// 40 KB of brackets would be rewritten as gigabytes.
+constexpr int max_nesting = 64;
+
+// The whole document, refused unless it has what every run_sweep file has.
+json parse_document(std::istream& in, const std::string& path) {
+  const auto refuse_deep = [&path](int depth, json::parse_event_t, json&) {
+    if (depth > max_nesting) {
+      throw InputError("--resume: " + path + " nests deeper than " + std::to_string(max_nesting) +
+                       " levels: not a results file");
+    }
+    return true;
+  };
+  json doc;
+  try {
+    doc = json::parse(in, refuse_deep);
+  } catch (const json::exception& e) {
+    throw InputError("--resume: " + path + " is not a results file (" + e.what() + ")");
+  }
+  if (!doc.contains("context") || !doc["context"].contains("config") || !doc.contains("benchmarks")) {
+    throw InputError("--resume: " + path + " has no context.config or benchmarks: not made by run_sweep");
+  }
+  return doc;
+}
+
+std::vector<StoredRecord> read_records(const json& doc, const std::string& path, bool retry_failed) {
+  std::vector<StoredRecord> stored;
+  std::set<std::string> names;
+  try {
+    for (const auto& item : doc.at("benchmarks")) {
+      Record r = from_json(item);
+      if (retry_failed && is_failure(r)) continue;
+      // Rewritten as read (key order and fields of other versions kept), not as to_json would make it.
+      if (names.insert(r.name).second) stored.push_back({r, ordered_json::parse(item.dump()).dump(2)});
+    }
+  } catch (const json::exception& e) {
+    throw InputError("--resume: " + path + ": a record is malformed (" + e.what() + ")");
+  } catch (const InputError& e) {
+    throw InputError("--resume: " + path + ": a record is malformed (" + e.what() + ")");
+  }
+  return stored;
+}
+
+}  // namespace
+
+std::vector<StoredRecord> parse_results(const std::string& text, const std::string& path, bool retry_failed) {
+  std::istringstream in(text);
+  return read_records(parse_document(in, path), path, retry_failed);
+}
+
 bool ResultsFile::resume(bool retry_failed) {
   if (!std::filesystem::exists(path_)) return false;
   std::ifstream in(path_);
-  json doc;
-  try {
-    doc = json::parse(in);
-  } catch (const json::exception& e) {
-    throw InputError("--resume: " + path_ + " is not a results file (" + e.what() + ")");
-  }
-  if (!doc.contains("context") || !doc["context"].contains("config") || !doc.contains("benchmarks")) {
-    throw InputError("--resume: " + path_ + " has no context.config or benchmarks: not made by run_sweep");
-  }
+  json doc = parse_document(in, path_);
   // Compared as plain JSON so that key order does not matter.
   const json wanted = json::parse(json_->context["config"].dump());
   if (doc["context"]["config"] != wanted) {
@@ -255,17 +314,10 @@ bool ResultsFile::resume(bool retry_failed) {
   ordered_json original = ordered_json::parse(doc["context"].dump());
   original["resumed"].push_back(json_->context["date"]);
   json_->context = original;
-  try {
-    for (const auto& item : doc["benchmarks"]) {
-      Record r = from_json(item);
-      if (retry_failed && is_failure(r)) continue;
-      if (names_.insert(r.name).second) {
-        records_.push_back(r);
-        serialised_.push_back(ordered_json::parse(item.dump()).dump(2));
-      }
-    }
-  } catch (const json::exception& e) {
-    throw InputError("--resume: " + path_ + ": a record is malformed (" + e.what() + ")");
+  for (auto& [record, text] : read_records(doc, path_, retry_failed)) {
+    names_.insert(record.name);
+    records_.push_back(std::move(record));
+    serialised_.push_back(std::move(text));
   }
   return true;
 }

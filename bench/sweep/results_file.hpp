@@ -33,6 +33,16 @@ struct RunDescription {
 std::string batch_to_json_line(const std::vector<Record>& batch);
 std::vector<Record> batch_from_json_line(const std::string& line);
 
+/// A record read back from a results file, with its JSON text as the file is rewritten with it.
+struct StoredRecord {
+  Record record;
+  std::string json;
+};
+/// The records of a results file's text in file order, the first of each name kept (without the cells
+/// whose child crashed or timed out when retry_failed): what resume() reads, short of the configuration
+/// check. Throws InputError naming path when the text is not a results file or a record is malformed.
+std::vector<StoredRecord> parse_results(const std::string& text, const std::string& path, bool retry_failed = false);
+
 class ResultsFile final : public ResultsSink {
  public:
   /// A results file at path for this run; nothing is written before the first add() or write().
