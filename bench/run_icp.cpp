@@ -1,10 +1,12 @@
 // run_icp: point-to-point ICP of a query cloud onto a model cloud with any adapter as the
-// nearest-neighbour search, or a whole ICP experiment (bench/experiments/icp_*.json).
+// nearest-neighbour search, or a whole ICP experiment (bench/experiments/icp_*.json), or one shard of it
+// (--shard I/N, split by sweep/shard.hpp's rule; --plan prints the split).
 #include "cli_common.hpp"
 #include "machine.hpp"
 #include "progress.hpp"
 #include "icp.hpp"
 #include "icp_experiment.hpp"
+#include "icp_plan.hpp"
 #include "icp_record.hpp"
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/datasets/poses.hpp"
@@ -18,6 +20,9 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <map>
+#include <optional>
+#include <set>
 #include <sstream>
 
 #include <unistd.h>
@@ -27,6 +32,7 @@ namespace {
 namespace ds = nnb::datasets;
 namespace icp = nnb::icp;
 using nnb::InputError;
+using nnb::sweep::ShardSpec;
 
 // What ICP runs on: clouds in metres, the query not moved, and the pair's poses when it has them.
 struct Input {
@@ -143,72 +149,261 @@ void print_summary(std::ostream& out, const icp::Record& rec, bool per_iteration
 }
 
 icp::RunContext run_context(const std::string& experiment, const ds::DataOptions& data) {
-  return {experiment, data.data_dir.empty() ? ds::default_data_dir() : data.data_dir};
+  return {experiment, data.data_dir.empty() ? ds::default_data_dir() : data.data_dir, "", ""};
 }
 
 std::string experiment_path(const std::string& name) { return nnb::files::experiment_path(name, NNB_EXPERIMENTS_DIR); }
 
-std::vector<std::string> adapters_of(const icp::Experiment& e) {
+nnb::Params params_of(const icp::Experiment& e, const std::string& adapter) {
+  const auto it = e.params.find(adapter);
+  return it == e.params.end() ? nnb::Params{} : it->second;
+}
+
+// The experiment's adapters (its list or set, less the excluded) as made with its parameters.
+std::vector<nnb::AdapterInfo> adapters_of(const icp::Experiment& e) {
   std::vector<std::string> names = e.adapters.empty() ? nnb::adapter_names() : e.adapters;
-  std::vector<std::string> chosen;
+  std::vector<nnb::AdapterInfo> chosen;
   for (const auto& name : names) {
     if (std::find(e.exclude.begin(), e.exclude.end(), name) != e.exclude.end()) continue;
-    const auto it = e.params.find(name);
-    auto index = nnb::make_adapter(name, it == e.params.end() ? nnb::Params{} : it->second);
-    if (e.adapter_set == "with_bucket" && bucket_param_of(index->info()).empty()) continue;
-    chosen.push_back(name);
+    auto info = nnb::make_adapter(name, params_of(e, name))->info();
+    if (e.adapter_set == "with_bucket" && bucket_param_of(info).empty()) continue;
+    chosen.push_back(std::move(info));
   }
   return chosen;
 }
 
-int run_experiment(const std::string& name, std::string out_path, const ds::DataOptions& data) {
-  const icp::Experiment e = icp::load_experiment(experiment_path(name));
-  if (out_path.empty()) out_path = e.out;
-  nnb::files::check_output_path(out_path, {experiment_path(name)});
-  const nnb::files::OutputLock lock(out_path);
-  nnb::files::remove_stale_temporaries(out_path);
-  const auto adapters = adapters_of(e);
-  std::cout << "experiment " << e.name << ": " << e.pairs.size() << " pair(s), adapters:";
-  for (const auto& a : adapters) std::cout << " " << a;
-  std::cout << "\nwriting " << out_path << "\n";
-  std::vector<icp::Record> records;
-  const std::size_t buckets_each = std::max<std::size_t>(1, e.bucket_sizes.size());
-  nnb::bench::Progress progress(e.pairs.size() * adapters.size() * buckets_each * std::size_t(e.repetitions), 0,
-                                isatty(STDERR_FILENO) != 0);
-  for (const auto& pair : e.pairs) {
-    const icp::Settings& s = icp::settings_for(e, pair);
-    const Input in = load_input(pair, pair, data, s.query_stride);
-    for (const auto& adapter : adapters) {
-      nnb::Params base;
-      if (const auto it = e.params.find(adapter); it != e.params.end()) base = it->second;
-      const std::string bucket_param = bucket_param_of(nnb::make_adapter(adapter, base)->info());
-      std::vector<std::optional<int>> buckets{std::nullopt};
-      if (!e.bucket_sizes.empty() && !bucket_param.empty()) buckets.assign(e.bucket_sizes.begin(), e.bucket_sizes.end());
-      for (const auto& bucket : buckets) {
-        nnb::Params params = base;
-        if (bucket) params[bucket_param] = std::to_string(*bucket);
-        for (int rep = 0; rep < e.repetitions; ++rep) {
-          icp::Record rec;
-          progress.begin(pair + " " + adapter + (bucket ? " " + bucket_param + "=" + std::to_string(*bucket) : ""));
-          try {
-            rec = run_one(in, adapter, params, options_of(s, in.initial), s.query_stride, rep);
-          } catch (const InputError& err) {  // e.g. a bucket size the library refuses
-            std::cout << "skipped " << adapter << " " << bucket_param << "=" << (bucket ? *bucket : 0) << ": "
-                      << err.what() << "\n";
-            progress.end(std::size_t(e.repetitions - rep), std::string("skipped: ") + err.what());
-            break;
-          }
-          progress.end(1, rec.result.failure.empty() ? "done" : rec.result.failure);
-          print_summary(std::cout, rec, false);
-          records.push_back(std::move(rec));
-          nnb::files::write_file_atomically(out_path, icp::results_json(records, nnb::cli::build_type(),
-                                                                      run_context(e.name, data)));
-        }
+// One adapter setting of the experiment: the parameters of a bucket size, and the size records name.
+struct Setting {
+  std::string adapter;
+  nnb::Params params;
+  std::string bucket_param;
+  std::optional<int> bucket_size;
+};
+
+// Every adapter at every bucket size of the experiment (its own value when it has no bucket parameter or
+// the experiment gives none). A size the library refuses is left out with a line in refused: it would be
+// refused on every pair and in every shard alike.
+std::vector<Setting> settings_of(const icp::Experiment& e, const std::vector<nnb::AdapterInfo>& adapters,
+                                 std::vector<std::string>& refused) {
+  std::vector<Setting> settings;
+  for (const auto& info : adapters) {
+    const std::string bucket_param = bucket_param_of(info);
+    std::vector<std::optional<int>> buckets{std::nullopt};
+    if (!e.bucket_sizes.empty() && !bucket_param.empty()) buckets.assign(e.bucket_sizes.begin(), e.bucket_sizes.end());
+    for (const auto& bucket : buckets) {
+      nnb::Params params = params_of(e, info.name);
+      if (bucket) params[bucket_param] = std::to_string(*bucket);
+      try {
+        const auto made = nnb::make_adapter(info.name, params)->info();
+        const auto size = made.bucket ? std::optional<int>(made.bucket->value) : std::nullopt;
+        settings.push_back({info.name, params, bucket_param, size});
+      } catch (const InputError& err) {
+        refused.push_back("skipped " + info.name + " " + bucket_param + "=" + std::to_string(bucket.value_or(0)) +
+                          ": " + err.what());
       }
     }
   }
+  return settings;
+}
+
+// The units in run order: each pair with each setting, its repetitions as cells.
+icp::Plan plan_units(const icp::Experiment& e, const std::vector<Setting>& settings, int shards) {
+  icp::Plan plan;
+  plan.count = shards;
+  std::set<std::string> cells;
+  for (const auto& spec : e.pairs) {
+    for (const auto& s : settings) {
+      icp::Unit unit{spec, pair_label(spec), s.adapter, s.params, s.bucket_param, s.bucket_size, {}, 0.0, 0};
+      for (int rep = 0; rep < e.repetitions; ++rep) {
+        unit.cells.push_back(icp::cell_name(icp::record_name(unit.pair, unit.adapter, unit.bucket_size), rep));
+        if (!cells.insert(unit.cells.back()).second) {
+          throw InputError("the experiment runs " + unit.cells.back() +
+                           " twice: a pair, adapter or bucket size is listed twice");
+        }
+      }
+      plan.units.push_back(std::move(unit));
+    }
+  }
+  return plan;
+}
+
+// Each unit's expected cost (icp::kCostModel): every search of an iteration costs about the same in a tree,
+// so query points x iterations, the build once per run; the iteration limit, as convergence is not known
+// before. Each pair is loaded once, for its sizes.
+void price_units(icp::Plan& plan, const icp::Experiment& e, const ds::DataOptions& data) {
+  std::map<std::string, std::pair<double, double>> points;  // by pair: model, query (after the stride)
+  for (auto& unit : plan.units) {
+    const icp::Settings& s = icp::settings_for(e, unit.spec);
+    auto it = points.find(unit.spec);
+    if (it == points.end()) {
+      const Input in = load_input(unit.spec, unit.spec, data, s.query_stride);
+      it = points.emplace(unit.spec, std::pair<double, double>(in.model.cols(), in.query.cols())).first;
+    }
+    const auto [model, query] = it->second;
+    const double work = e.repetitions * (query * s.max_iterations + model);
+    unit.cost = nnb::sweep::adapter_cost_factor(unit.adapter) * work * 1e-6;
+  }
+}
+
+void print_plan(std::ostream& out, const icp::Plan& plan, const icp::Experiment& e, const ShardSpec& shard,
+                const std::vector<std::string>& refused, bool as_json) {
+  if (as_json) {
+    out << icp::plan_json(plan, e, shard, refused) << "\n";
+    return;
+  }
+  out << "plan: experiment '" << e.name << "': " << plan.total_cells << " cells in " << plan.units.size()
+      << " units (pair x adapter x bucket size, one ICP run per repetition) over " << plan.count << " shards\n"
+      << "expected cost: (query points x iteration limit + model points) x repetitions x adapter factor ("
+      << nnb::sweep::adapter_cost_factors_text() << "), in 1e6\n";
+  nnb::sweep::print_shard_table(out, plan, shard);
+  for (const auto& line : refused) out << line << "\n";
+  if (!shard.given) return;
+  out << "units of shard " << nnb::sweep::shard_label(shard) << ":\n";
+  for (const auto& u : plan.units) {
+    if (u.shard != shard.index) continue;
+    const std::string bucket = u.bucket_size ? std::to_string(*u.bucket_size) : "default";
+    out << "  " << u.pair << " " << u.adapter << " bucket:" << bucket << ": " << u.cells.size() << " cells, cost "
+        << std::fixed << std::setprecision(1) << u.cost << std::defaultfloat << "\n";
+  }
+}
+
+// The experiment's results file: the records of the file it resumes, then this run's, rewritten atomically
+// after every run so that a killed run loses at most the one under way.
+class ResultsFile {
+ public:
+  ResultsFile(std::string path, icp::RunContext run) : path_(std::move(path)), run_(std::move(run)) {}
+
+  /// Keeps the records of an existing file made with the same configuration; false when there is none.
+  bool resume() {
+    if (!std::filesystem::exists(path_)) return false;
+    resumed_ = icp::read_resumable(path_, run_);
+    texts_ = resumed_.records;
+    cells_.insert(resumed_.cells.begin(), resumed_.cells.end());
+    return true;
+  }
+  bool has(const std::string& cell) const { return cells_.count(cell) > 0; }
+  void add(const icp::Record& rec) {
+    texts_.push_back(icp::record_text(rec));
+    cells_.insert(icp::cell_name(icp::record_name(rec), rec.repetition));
+    write();
+  }
+  void write() const {
+    nnb::files::write_file_atomically(path_, icp::results_json(texts_, nnb::cli::build_type(), run_, resumed_.context));
+  }
+  std::size_t size() const { return texts_.size(); }
+
+ private:
+  std::string path_;
+  icp::RunContext run_;
+  icp::Resumed resumed_;
+  std::vector<std::string> texts_;
+  std::set<std::string> cells_;
+};
+
+// The repetitions of one unit not yet in the file. A library that refuses the cloud itself (at build) skips
+// the rest of its unit.
+void run_unit(const icp::Unit& unit, const Input& in, const icp::Settings& s, ResultsFile& results,
+              nnb::bench::Progress& progress) {
+  const std::string bucket =
+      unit.bucket_size ? " " + unit.bucket_param + "=" + std::to_string(*unit.bucket_size) : std::string();
+  for (int rep = 0; rep < static_cast<int>(unit.cells.size()); ++rep) {
+    if (results.has(unit.cells[rep])) continue;
+    progress.begin(unit.spec + " " + unit.adapter + bucket);
+    icp::Record rec;
+    try {
+      rec = run_one(in, unit.adapter, unit.params, options_of(s, in.initial), s.query_stride, rep);
+    } catch (const InputError& err) {
+      std::cout << "skipped " << unit.adapter << bucket << ": " << err.what() << "\n";
+      progress.end(unit.cells.size() - rep, std::string("skipped: ") + err.what());
+      return;
+    }
+    progress.end(1, rec.result.failure.empty() ? "done" : rec.result.failure);
+    print_summary(std::cout, rec, false);
+    results.add(rec);
+  }
+}
+
+// The units of one shard in plan order, each pair loaded when a cell of it is still to run.
+void run_units(const icp::Plan& plan, int shard, const icp::Experiment& e, const ds::DataOptions& data,
+               ResultsFile& results, nnb::bench::Progress& progress) {
+  std::optional<Input> in;
+  std::string loaded;  // the pair in `in`
+  for (const auto& unit : plan.units) {
+    if (unit.shard != shard) continue;
+    if (std::all_of(unit.cells.begin(), unit.cells.end(), [&](const auto& c) { return results.has(c); })) continue;
+    const icp::Settings& s = icp::settings_for(e, unit.spec);
+    if (!in || loaded != unit.spec) {
+      in.reset();  // one pair in memory at a time
+      in = load_input(unit.spec, unit.spec, data, s.query_stride);
+      loaded = unit.spec;
+    }
+    run_unit(unit, *in, s, results, progress);
+  }
+}
+
+struct ExperimentFlags {
+  std::string name, out, shard;
+  bool resume = false, plan = false, plan_json = false;
+};
+
+// The experiment's units in run order, split into shards; priced (which loads every pair once) only when the
+// split matters, as a single run takes them all.
+icp::Plan make_plan(const icp::Experiment& e, const std::vector<nnb::AdapterInfo>& adapters, const ShardSpec& shard,
+                    bool priced, const ds::DataOptions& data, std::vector<std::string>& refused) {
+  icp::Plan plan = plan_units(e, settings_of(e, adapters, refused), shard.count);
+  if (priced) price_units(plan, e, data);
+  nnb::sweep::assign_longest_first(plan);
+  return plan;
+}
+
+// What the results file says of an experiment run: its configuration (the shard in it, so that a resume as
+// another shard is refused) and the shard's plan.
+icp::RunContext experiment_context(const icp::Experiment& e, const std::vector<nnb::AdapterInfo>& adapters,
+                                   const icp::Plan& plan, const ShardSpec& shard, const ds::DataOptions& data) {
+  std::vector<icp::AdapterVersion> versions;
+  for (const auto& a : adapters) versions.push_back({a.name, a.version});
+  icp::RunContext run = run_context(e.name, data);
+  run.config = icp::config_json(e, versions, data.synthetic_points, data.seed, nnb::cli::build_type(),
+                                nnb::sweep::shard_config_json(shard));
+  run.shard = icp::shard_context_json(plan, shard);
+  return run;
+}
+
+int run_experiment(const ExperimentFlags& flags, const ds::DataOptions& data) {
+  const icp::Experiment e = icp::load_experiment(experiment_path(flags.name));
+  const ShardSpec shard = flags.shard.empty() ? ShardSpec{} : nnb::sweep::parse_shard(flags.shard);
+  const auto adapters = adapters_of(e);
+  std::vector<std::string> refused;
+  const icp::Plan plan = make_plan(e, adapters, shard, shard.given || flags.plan, data, refused);
+  if (flags.plan) {
+    print_plan(std::cout, plan, e, shard, refused, flags.plan_json);
+    return 0;
+  }
+  const std::string out_path = flags.out.empty() ? nnb::sweep::shard_path(e.out, shard) : flags.out;
+  nnb::files::check_output_path(out_path, {experiment_path(flags.name)});
+  const nnb::files::OutputLock lock(out_path);
+  nnb::files::remove_stale_temporaries(out_path);
+  ResultsFile results(out_path, experiment_context(e, adapters, plan, shard, data));
+  if (flags.resume) {
+    if (!results.resume()) std::cerr << "run_icp: --resume: " << out_path << " does not exist yet, starting afresh\n";
+  } else if (std::filesystem::exists(out_path)) {
+    std::cerr << "run_icp: note: replacing " << out_path << " (--resume continues it)\n";
+  }
+
+  const auto cells = plan.cells_of(shard.index);
+  const auto already = static_cast<std::size_t>(
+      std::count_if(cells.begin(), cells.end(), [&](const auto& c) { return results.has(c); }));
+  std::cout << "experiment " << e.name << (shard.given ? ", shard " + flags.shard : std::string()) << ": "
+            << e.pairs.size() << " pair(s), " << cells.size() << " runs (" << already
+            << " already in the file), adapters:";
+  for (const auto& a : adapters) std::cout << " " << a.name;
+  std::cout << "\nwriting " << out_path << "\n";
+  for (const auto& line : refused) std::cout << line << "\n";
+  nnb::bench::Progress progress(cells.size(), already, isatty(STDERR_FILENO) != 0);
+  run_units(plan, shard.index, e, data, results, progress);
   progress.finish();
-  std::cout << records.size() << " records written to " << out_path << "\n";
+  results.write();  // also when the shard has nothing (left) to run, so that every shard has its file
+  std::cout << results.size() << " records written to " << out_path << "\n";
   return 0;
 }
 
@@ -218,12 +413,20 @@ int main(int argc, char** argv) {
   nnb::bench::mark_run_start(argc, argv);
   return nnb::cli::run_reporting_errors("run_icp", [&]() -> int {
     CLI::App app{"Point-to-point ICP (Besl and McKay) with any adapter as the nearest-neighbour search."};
-    std::string adapter, model_spec, query_spec, initial_file, out_path, experiment;
+    std::string adapter, model_spec, query_spec, initial_file, out_path;
+    ExperimentFlags experiment;
     std::vector<std::string> param_words;
     icp::Settings s;
     s.max_dist.start_m = 0.25;
     ds::DataOptions data;
-    app.add_option("--experiment", experiment, "run an ICP experiment: a name in bench/experiments or a file");
+    app.add_option("--experiment", experiment.name, "run an ICP experiment: a name in bench/experiments or a file");
+    app.add_flag("--resume", experiment.resume,
+                 "with --experiment: finish the runs missing from --out (same configuration only)");
+    app.add_option("--shard", experiment.shard,
+                   "with --experiment: I/N: run only shard I (from 0) of N, balanced by expected cost");
+    app.add_flag("--plan", experiment.plan,
+                 "with --experiment: print the runs, units and shards with their expected cost; run nothing");
+    app.add_flag("--json", experiment.plan_json, "with --plan: print the plan as JSON");
     app.add_option("--adapter", adapter, "nearest-neighbour adapter (see nns_query --list)");
     app.add_option("--param", param_words, "adapter parameter NAME=VALUE (repeatable)");
     app.add_option("--model", model_spec, "model cloud: shape name, real pair name or file");
@@ -245,11 +448,15 @@ int main(int argc, char** argv) {
     app.add_option("--out", out_path, "results file (JSON, Google Benchmark schema), written atomically");
     if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_icp")) return *code;
     nnb::cli::warn_if_not_release(std::cerr);
-    if (!experiment.empty()) {
+    if (!experiment.name.empty()) {
       if (!adapter.empty() || !model_spec.empty() || !query_spec.empty()) {
         throw InputError("--experiment takes its adapters and pairs from the file: drop --adapter/--model/--query");
       }
-      return run_experiment(experiment, out_path, data);
+      experiment.out = out_path;
+      return run_experiment(experiment, data);
+    }
+    if (experiment.resume || experiment.plan || !experiment.shard.empty()) {
+      throw InputError("--resume, --shard and --plan run an experiment: give --experiment NAME");
     }
     if (adapter.empty() || model_spec.empty() || query_spec.empty() || out_path.empty()) {
       throw InputError("give --adapter, --model, --query and --out (or --experiment NAME)");
@@ -265,7 +472,8 @@ int main(int argc, char** argv) {
                              options_of(s, icp::checked_rigid(in.initial, "the initial pose " + initial_file)),
                              s.query_stride, 0);
     print_summary(std::cout, rec, true);
-    nnb::files::write_file_atomically(out_path, icp::results_json({rec}, nnb::cli::build_type(), run_context("", data)));
+    nnb::files::write_file_atomically(
+        out_path, icp::results_json(std::vector<icp::Record>{rec}, nnb::cli::build_type(), run_context("", data)));
     std::cout << "written " << out_path << "\n";
     return rec.result.failure.empty() ? 0 : 3;
   });

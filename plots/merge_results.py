@@ -1,14 +1,16 @@
 #!/usr/bin/env python3
-"""Merges the shard files of one sharded sweep (run_sweep --shard I/N) into one results file.
+"""Merges the shard files of one sharded run (run_sweep or run_icp --shard I/N) into one results file.
 
     plots/merge_results.py results/sweep_paper.shard-*-of-64.json --out results/sweep_paper.json
+    plots/merge_results.py results/icp_real.shard-*-of-8.json --out results/icp_real.json
 
 Refuses shards from different git commits, experiments, configurations (the shard aside) or build types,
 and a shard given twice (exit 2). Reports missing shards, missing cells (by name) and cells recorded by
 two shards, and then exits 1 without writing, unless --allow-missing (missing cells only). The merged file
 has the schema of a single run, its cells in a single run's order, and the cross-check of exact adapters
 redone over all shards (as one process would have done it); context.merged_from says which shards it
-came from. Written atomically (temporary file, then rename).
+came from. Written atomically (temporary file, then rename). A run_icp cell is one repetition of a
+(pair, adapter, bucket size) unit: its record name and repetition_index.
 """
 import argparse
 import json
@@ -31,8 +33,26 @@ def load_shard(path):
         raise Refused(f"{path}: not a results file ({e})")
     context = doc.get("context", {}) if isinstance(doc, dict) else {}
     if "benchmarks" not in doc or "shard" not in context or "shard" not in context.get("config", {}):
-        raise Refused(f"{path}: not a shard file (no context.shard: made without run_sweep --shard)")
+        raise Refused(f"{path}: not a shard file (no context.shard: made without --shard)")
     return doc
+
+
+# What identifies a unit (in the plan and in its records) and a cell, by the program that wrote the shards.
+UNIT_FIELDS = {"run_sweep": ("model", "adapter"), "run_icp": ("pair", "adapter", "bucket_size")}
+
+
+def program(doc):
+    return doc["context"]["shard"].get("program", "run_sweep")
+
+
+def unit_key(doc, unit_or_record):
+    return tuple(unit_or_record.get(field) for field in UNIT_FIELDS[program(doc)])
+
+
+def cell_name(doc, rec):
+    if program(doc) == "run_icp":
+        return f"{rec['name']}#{rec.get('repetition_index', 0)}"
+    return rec["name"]
 
 
 def config_without_shard(doc):
@@ -42,7 +62,8 @@ def config_without_shard(doc):
 def check_same_run(docs, paths):
     """Every shard must come from the same commit, experiment, configuration, build and plan."""
     first = docs[0]["context"]
-    checks = [("git commit", lambda c, d: c.get("git_commit")),
+    checks = [("program", lambda c, d: program(d)),
+              ("git commit", lambda c, d: c.get("git_commit")),
               ("experiment", lambda c, d: c.get("experiment")),
               ("build type", lambda c, d: (c.get("build_type"), c.get("ndebug"), c.get("sanitizers"))),
               ("configuration", lambda c, d: config_without_shard(d)),
@@ -79,22 +100,22 @@ def missing_shards(docs):
             continue
         units = [u for u in plan["units"] if u["shard"] == index]
         cells = sum(u["cells"] for u in units)
-        names = ", ".join(f"{u['model']} {u['adapter']}" for u in units)
+        names = ", ".join(" ".join(str(v) for v in unit_key(docs[0], u) if v is not None) for u in units)
         lines.append(f"shard {index}/{plan['count']} missing: {len(units)} units, {cells} cells ({names or 'none'})")
     return lines
 
 
 def collect_cells(docs, paths):
-    """The records by name; missing and duplicated cell names, and the run-order key of each name."""
+    """The records by cell name; missing and duplicated cell names, and the run-order key of each name."""
     records, origin, duplicated, missing, order = {}, {}, [], [], {}
     units = docs[0]["context"]["shard"]["units"]
-    unit_index = {(u["model"], u["adapter"]): i for i, u in enumerate(units)}
+    unit_index = {unit_key(docs[0], u): i for i, u in enumerate(units)}
     for doc, path in zip(docs, paths):
         expected = doc["context"]["shard"]["cells"]
         position = {name: i for i, name in enumerate(expected)}
         names = set()
         for rec in doc["benchmarks"]:
-            name = rec["name"]
+            name = cell_name(doc, rec)
             if name in records:
                 duplicated.append(f"{name} (in {origin[name]} and {path})")
                 continue
@@ -103,7 +124,7 @@ def collect_cells(docs, paths):
                 continue
             records[name], origin[name] = rec, path
             names.add(name)
-            order[name] = (unit_index.get((rec.get("model"), rec.get("adapter")), len(units)), position[name])
+            order[name] = (unit_index.get(unit_key(doc, rec), len(units)), position[name])
         missing += [f"{name} (shard {shard_index(doc)}, {path})" for name in expected if name not in names]
     return records, order, duplicated, missing
 
@@ -206,7 +227,7 @@ def merge(paths, out, allow_missing):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("shards", nargs="+", help="shard files of one run (run_sweep --shard I/N)")
+    parser.add_argument("shards", nargs="+", help="shard files of one run (run_sweep or run_icp --shard I/N)")
     parser.add_argument("--out", required=True, help="the merged results file")
     parser.add_argument("--allow-missing", action="store_true",
                         help="write the merge although shards or cells are missing (duplicates still refused)")

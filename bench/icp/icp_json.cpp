@@ -1,4 +1,5 @@
 #include "icp_experiment.hpp"
+#include "icp_plan.hpp"
 #include "icp_record.hpp"
 #include "json_whole.hpp"
 #include "machine_json.hpp"
@@ -10,11 +11,13 @@
 
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace nnb::icp {
 namespace {
 
+using nlohmann::json;
 using nlohmann::ordered_json;
 
 // Google Benchmark's context fields and the build's, as run_sweep writes them; nnb_build_type is the
@@ -91,10 +94,12 @@ ordered_json record_json(const Record& rec) {
 
 }  // namespace
 
-std::string record_name(const Record& record) {
-  const std::string bucket = record.bucket_size ? std::to_string(*record.bucket_size) : std::string("default");
-  return "icp/" + record.pair + "/" + record.adapter + "/bucket:" + bucket;
+std::string record_name(const std::string& pair, const std::string& adapter, std::optional<int> bucket_size) {
+  const std::string bucket = bucket_size ? std::to_string(*bucket_size) : std::string("default");
+  return "icp/" + pair + "/" + adapter + "/bucket:" + bucket;
 }
+
+std::string record_name(const Record& record) { return record_name(record.pair, record.adapter, record.bucket_size); }
 
 std::optional<double> reference_translation_error_m(const Record& record) {
   if (!record.reference) return std::nullopt;
@@ -106,14 +111,133 @@ std::optional<double> reference_rotation_error_deg(const Record& record) {
   return rotation_angle_rad(record.reference->inverse() * record.result.pose) * 180.0 / 3.14159265358979323846;
 }
 
+std::string record_text(const Record& record) { return record_json(record).dump(2); }
+
+std::string results_json(const std::vector<std::string>& record_texts, const std::string& build_type,
+                         const RunContext& run, const std::string& earlier_context) {
+  ordered_json context = machine_context(build_type);
+  if (earlier_context.empty()) {
+    context["experiment"] = run.experiment;  // the field name run_sweep's files use
+    context["data_dir"] = run.data_dir;
+    if (!run.config.empty()) context["config"] = ordered_json::parse(run.config);
+    if (!run.shard.empty()) context["shard"] = ordered_json::parse(run.shard);
+    if (!run.config.empty()) context["resumed"] = ordered_json::array();
+  } else {  // the first run's date and machine stay; this run is noted as a resumption
+    const std::string date = context["date"];
+    context = ordered_json::parse(earlier_context);
+    context["resumed"].push_back(date);
+    bench::put_run(context, bench::read_run_info());
+  }
+  std::string text = "{\n\"context\": " + context.dump(2) + ",\n\"benchmarks\": [";
+  for (std::size_t i = 0; i < record_texts.size(); ++i) (text += i ? ",\n" : "\n") += record_texts[i];
+  return text + "\n]\n}\n";
+}
+
 std::string results_json(const std::vector<Record>& records, const std::string& build_type, const RunContext& run) {
+  std::vector<std::string> texts;
+  for (const auto& rec : records) texts.push_back(record_text(rec));
+  return results_json(texts, build_type, run);
+}
+
+Resumed read_resumable(const std::string& path, const RunContext& run) {
+  std::ifstream in(path);
   ordered_json doc;
-  doc["context"] = machine_context(build_type);
-  doc["context"]["experiment"] = run.experiment;  // the field name run_sweep's files use
-  doc["context"]["data_dir"] = run.data_dir;
-  doc["benchmarks"] = ordered_json::array();
-  for (const auto& rec : records) doc["benchmarks"].push_back(record_json(rec));
-  return doc.dump(2) + "\n";
+  try {
+    doc = ordered_json::parse(in);
+  } catch (const ordered_json::exception& e) {
+    throw InputError("--resume: " + path + " is not a results file (" + e.what() + ")");
+  }
+  if (!doc.is_object() || !doc.contains("context") || !doc["context"].contains("config") ||
+      !doc.contains("benchmarks") || !doc["benchmarks"].is_array()) {
+    throw InputError("--resume: " + path + " has no context.config or benchmarks: not made by run_icp --experiment");
+  }
+  // Compared as plain JSON so that key order does not matter.
+  if (json::parse(doc["context"]["config"].dump()) != json::parse(run.config)) {
+    throw InputError("--resume: " + path + " was made with another configuration (experiment, settings, adapters, "
+                     "build or shard); refusing to mix results. Use another --out or remove the file.");
+  }
+  Resumed resumed;
+  resumed.context = doc["context"].dump();
+  std::set<std::string> seen;
+  try {
+    for (const auto& item : doc["benchmarks"]) {
+      const std::string cell = cell_name(item.at("name").get<std::string>(), item.at("repetition_index").get<int>());
+      if (!seen.insert(cell).second) continue;
+      resumed.cells.push_back(cell);
+      resumed.records.push_back(item.dump(2));
+    }
+  } catch (const ordered_json::exception& e) {
+    throw InputError("--resume: " + path + ": a record is malformed (" + e.what() + ")");
+  }
+  return resumed;
+}
+
+// ---- plans and configuration ----
+
+std::string cell_name(const std::string& record_name, int repetition) {
+  return record_name + "#" + std::to_string(repetition);
+}
+
+namespace {
+
+ordered_json units_json(const Plan& plan) {
+  ordered_json units = ordered_json::array();
+  for (const auto& u : plan.units) {
+    units.push_back({{"pair", u.pair}, {"adapter", u.adapter},
+                     {"bucket_size", u.bucket_size ? ordered_json(*u.bucket_size) : ordered_json(nullptr)},
+                     {"cells", u.cells.size()}, {"cost", u.cost}, {"shard", u.shard}});
+  }
+  return units;
+}
+
+ordered_json settings_json(const Settings& s) {
+  return {{"max_dist_m", s.max_dist.start_m}, {"max_dist_factor", s.max_dist.factor},
+          {"max_dist_floor_m", s.max_dist.floor_m}, {"iterations", s.max_iterations},
+          {"min_translation_step_m", s.min_translation_step_m}, {"min_rotation_step_rad", s.min_rotation_step_rad},
+          {"query_stride", s.query_stride}};
+}
+
+}  // namespace
+
+std::string plan_json(const Plan& plan, const Experiment& e, const ShardSpec& shard,
+                      const std::vector<std::string>& refused) {
+  ordered_json j{{"experiment", e.name}, {"shards", plan.count}, {"total_cells", plan.total_cells},
+                 {"total_units", plan.units.size()}, {"cost_model", kCostModel}, {"units", units_json(plan)},
+                 {"shard_cost", plan.shard_cost}, {"shard_cells", plan.shard_cells}, {"refused", refused}};
+  if (shard.given) {
+    j["shard"] = shard.index;
+    j["cells"] = plan.cells_of(shard.index);
+  }
+  return j.dump(1);
+}
+
+std::string shard_context_json(const Plan& plan, const ShardSpec& shard) {
+  if (!shard.given) return "";
+  // "program" tells plots/merge_results.py that units are (pair, adapter, bucket_size) and cells name#repetition.
+  ordered_json j{{"program", "run_icp"}, {"index", shard.index}, {"count", shard.count},
+                 {"plan_cells", plan.total_cells}, {"plan_units", plan.units.size()},
+                 {"cells", plan.cells_of(shard.index)}, {"units", units_json(plan)}};
+  return j.dump();
+}
+
+std::string config_json(const Experiment& e, const std::vector<AdapterVersion>& adapters, std::size_t synthetic_points,
+                        std::uint64_t seed, const std::string& build_type, const std::string& shard_config) {
+  ordered_json c;
+  c["experiment"] = e.name;
+  c["pairs"] = ordered_json::array();
+  for (const auto& pair : e.pairs) {
+    c["pairs"].push_back({{"pair", pair}, {"icp", settings_json(settings_for(e, pair))}});
+  }
+  c["adapters"] = ordered_json::array();
+  for (const auto& a : adapters) c["adapters"].push_back({{"name", a.name}, {"version", a.version}});
+  c["bucket_sizes"] = e.bucket_sizes;
+  c["params"] = e.params;
+  c["repetitions"] = e.repetitions;
+  c["synthetic_points"] = synthetic_points;
+  c["seed"] = seed;
+  c["build_type"] = build_type;
+  if (!shard_config.empty()) c["shard"] = ordered_json::parse(shard_config);
+  return c.dump();
 }
 
 }  // namespace nnb::icp

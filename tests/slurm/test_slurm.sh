@@ -2,7 +2,9 @@
 # A real Slurm on this machine: starts munged, slurmctld and slurmd (Debian's slurm-wlm and munge) with a
 # private configuration, key, ports and state; submits a small sweep with scripts/slurm/submit.sh as a job
 # array of 4 shards; cancels the shard holding brute force mid-run and resubmits it, which must resume its
-# file; checks the merged file has exactly the cells of a single-process run, with the same found counts.
+# file; checks the merged file has exactly the cells of a single-process run, with the same found counts. Then
+# a small ICP experiment as a job array of 2 shards (submit.sh --program run_icp, run_icp beside run_sweep),
+# merged to the runs of a single process with the same poses.
 # Every daemon it started is stopped and its state removed on exit, also when it fails.
 #
 #   tests/slurm/test_slurm.sh RUN_SWEEP WORKDIR        (as root, or with passwordless sudo)
@@ -17,6 +19,7 @@ fi
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 run_sweep=$(realpath "$1")
+run_icp="$(dirname "${run_sweep}")/run_icp"
 build=$(dirname "$(dirname "${run_sweep}")")
 work=$(realpath -m "$2")
 state="${work}/state"   # daemons' configuration, key, sockets, spool and logs: removed on exit
@@ -177,6 +180,21 @@ write_experiment() {
 EOF
 }
 
+# ICP on a simulated pair it really moves and a small shape; brute force on every 8th query point only.
+write_icp_experiment() {
+  cat > "${work}/slurm_icp.json" <<'EOF'
+{
+  "name": "slurm_icp",
+  "description": "Test of run_icp as a Slurm job array: three adapters, two pairs, two repetitions.",
+  "pairs": ["city-tls-15k", "hollow_sphere"],
+  "adapters": ["brute_force", "nanoflann_kdtree", "ours_kdtree"],
+  "icp": {"max_dist_m": 0.5, "iterations": 10},
+  "icp_by_pair": {"city-tls-15k": {"query_stride": 8}},
+  "repetitions": 2
+}
+EOF
+}
+
 json_count() {  # number of records in a results file (0 when absent or half written)
   python3 -c 'import json,sys
 try: print(len(json.load(open(sys.argv[1]))["benchmarks"]))
@@ -257,4 +275,25 @@ for p in problems[:20]:
     print("  " + p, file=sys.stderr)
 sys.exit(1 if problems else 0)
 EOF
-echo "test_slurm: ok: ${shards} shards under Slurm merged to the single run's cells; the cancelled shard resumed"
+
+echo "test_slurm: an ICP experiment as a job array of 2 shards"
+write_icp_experiment
+"${run_icp}" --experiment "${work}/slurm_icp.json" --points 500 --out "${work}/icp_whole.json" \
+  > "${work}/icp_whole.log" 2>&1 || fail "the single-process ICP run failed: $(tail -n 5 "${work}/icp_whole.log")"
+"${repo}/scripts/slurm/submit.sh" "${work}/slurm_icp.json" 2 --program run_icp --mem 400M --time 10 \
+  --out-dir "${results}" --build "${build}" --no-figures -- --points 500 > "${work}/submit_icp.out"
+icp_array=$(sed -n 's/^array=//p' "${work}/submit_icp.out")
+[ -n "${icp_array}" ] || fail "submit.sh --program run_icp printed no job id: $(cat "${work}/submit_icp.out")"
+wait_empty 120 "ICP job array ${icp_array} and its merge" squeue -h
+grep -q "merge.sbatch: done" "${results}"/logs/nnb-slurm_icp-merge-*.log || fail "no ICP merge job finished"
+python3 - "${work}/icp_whole.json" "${results}/slurm_icp.json" <<'EOF' || fail "ICP results differ (above)"
+import json, sys
+whole, merged = (json.load(open(p)) for p in sys.argv[1:])
+runs = lambda doc: [(r["name"], r["repetition_index"], r["iterations"], r["converged"], r["final_pose"])
+                    for r in doc["benchmarks"]]
+if runs(merged) != runs(whole) or len(merged["context"]["merged_from"]) != 2:
+    print(f"  merged {runs(merged)[:4]}...\n  whole  {runs(whole)[:4]}...", file=sys.stderr)
+    sys.exit(1)
+EOF
+echo "test_slurm: ok: ${shards} shards under Slurm merged to the single run's cells; the cancelled shard resumed;" \
+  "an ICP experiment's 2 shards merged to the single run's"
