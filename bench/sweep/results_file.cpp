@@ -251,7 +251,7 @@ namespace {
 
 // run_sweep's files nest six levels. A deeper document is refused while it is read: dump() and == recurse
 // once per level (a stack overflow at some ten thousand), and dump(2) indents each line by its depth, so
-// 40 KB of brackets would be rewritten as gigabytes.
+// 40 KB of brackets would be rewritten as nearly a gigabyte.
 constexpr int max_nesting = 64;
 
 // The whole document, refused unless it has what every run_sweep file has.
