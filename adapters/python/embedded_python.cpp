@@ -11,6 +11,8 @@
 // libpython on their stack are ignored (Python's and the extensions' it calls); ours are still checked.
 // LeakSanitizer reads this hook in every program that links the Python adapters.
 extern "C" const char* __lsan_default_suppressions() { return "leak:libpython3\n"; }
+// Without this, every such program would end by listing the suppressed Python objects on stderr.
+extern "C" const char* __lsan_default_options() { return "print_suppressions=0"; }
 #endif
 
 namespace nnb::adapters::python {
