@@ -8,7 +8,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 seconds="${1:-600}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(pcd ply text3d xyz bin experiment results)
+[ ${#targets[@]} -gt 0 ] || targets=(pcd ply text3d xyz bin experiment results icp_results)
 build="$root/build/fuzz"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNNB_FUZZ=ON \

@@ -139,16 +139,29 @@ std::string results_json(const std::vector<Record>& records, const std::string& 
   return results_json(texts, build_type, run);
 }
 
+// Results files nest six levels. A deeper document is refused while it is read: dump() recurses once per
+// level (a stack overflow at some ten thousand) and dump(2) indents each line by its depth, so 40 KB of
+// brackets would be kept as nearly a gigabyte.
+constexpr int kMaxNesting = 64;
+
 Resumed read_resumable(const std::string& path, const RunContext& run) {
   std::ifstream in(path);
+  const auto refuse_deep = [&path](int depth, ordered_json::parse_event_t, ordered_json&) {
+    if (depth > kMaxNesting) {
+      throw InputError("--resume: " + path + " nests deeper than " + std::to_string(kMaxNesting) +
+                       " levels: not a results file");
+    }
+    return true;
+  };
   ordered_json doc;
   try {
-    doc = ordered_json::parse(in);
+    doc = ordered_json::parse(in, refuse_deep);
   } catch (const ordered_json::exception& e) {
     throw InputError("--resume: " + path + " is not a results file (" + e.what() + ")");
   }
   if (!doc.is_object() || !doc.contains("context") || !doc["context"].contains("config") ||
-      !doc.contains("benchmarks") || !doc["benchmarks"].is_array()) {
+      !doc.contains("benchmarks") || !doc["benchmarks"].is_array() ||
+      (doc["context"].contains("resumed") && !doc["context"]["resumed"].is_array())) {
     throw InputError("--resume: " + path + " has no context.config or benchmarks: not made by run_icp --experiment");
   }
   // Compared as plain JSON so that key order does not matter.
@@ -161,12 +174,15 @@ Resumed read_resumable(const std::string& path, const RunContext& run) {
   std::set<std::string> seen;
   try {
     for (const auto& item : doc["benchmarks"]) {
-      const std::string cell = cell_name(item.at("name").get<std::string>(), item.at("repetition_index").get<int>());
+      const int repetition = bench::whole_number<int>(item.at("repetition_index"), "repetition_index");
+      const std::string cell = cell_name(item.at("name").get<std::string>(), repetition);
       if (!seen.insert(cell).second) continue;
       resumed.cells.push_back(cell);
       resumed.records.push_back(item.dump(2));
     }
   } catch (const ordered_json::exception& e) {
+    throw InputError("--resume: " + path + ": a record is malformed (" + e.what() + ")");
+  } catch (const InputError& e) {
     throw InputError("--resume: " + path + ": a record is malformed (" + e.what() + ")");
   }
   return resumed;

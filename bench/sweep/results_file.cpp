@@ -269,7 +269,8 @@ json parse_document(std::istream& in, const std::string& path) {
   } catch (const json::exception& e) {
     throw InputError("--resume: " + path + " is not a results file (" + e.what() + ")");
   }
-  if (!doc.contains("context") || !doc["context"].contains("config") || !doc.contains("benchmarks")) {
+  if (!doc.contains("context") || !doc["context"].contains("config") || !doc.contains("benchmarks") ||
+      (doc["context"].contains("resumed") && !doc["context"]["resumed"].is_array())) {
     throw InputError("--resume: " + path + " has no context.config or benchmarks: not made by run_sweep");
   }
   return doc;
