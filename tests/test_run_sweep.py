@@ -322,7 +322,9 @@ def case_scale_memory():
     # no limit worth the name: nothing skipped
     out = work / "no_limit.json"
     run(SCALE_SMALL + adapters + ["--memory-limit-gib", "8", "--out", str(out)])
-    check(not any("skipped" in r for r in load(out)["benchmarks"]), "skipped under an 8 GiB limit")
+    # (a loaded machine may still stop brute force by the time budget: only memory skips are wrong here)
+    memory_skips = [r["name"] for r in load(out)["benchmarks"] if "memory" in r.get("skipped", "")]
+    check(not memory_skips, f"skipped for memory under an 8 GiB limit: {memory_skips}")
     for bad in ("0", "-1", "nan", "x"):
         run(SCALE_SMALL + adapters + ["--memory-limit-gib", bad, "--out", str(work / "bad.json")], expect=2)
     check(not (work / "bad.json").exists(), "a bad memory limit wrote a file")
