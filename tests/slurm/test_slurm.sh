@@ -27,6 +27,7 @@ results="${work}/results"
 shards=4
 pids=()       # slurmctld and slurmd
 munge_pid=""
+watchdog=""    # the subshell that ends a run past its time
 
 fail() {
   echo "test_slurm: FAIL: $*" >&2
@@ -66,6 +67,7 @@ stop_job_processes() {
 cleanup() {
   local status=$?
   trap - EXIT
+  [ -z "${watchdog}" ] || kill "${watchdog}" 2>/dev/null || true
   if [ -f "${state}/slurm.conf" ]; then
     scancel --full --quiet --user root 2>/dev/null || true
     for _ in $(seq 50); do [ -z "$(squeue -h 2>/dev/null)" ] && break; sleep 0.1; done
@@ -82,6 +84,15 @@ cleanup() {
 }
 trap cleanup EXIT
 trap 'exit 130' INT TERM
+# ctest ends a test past its time-out with SIGKILL, which no trap sees: give up first, and clean up.
+watchdog_seconds=${NNB_SLURM_TEST_SECONDS:-780}
+( sleep "${watchdog_seconds}" </dev/null >/dev/null 2>&1 &
+  sleeper=$!
+  trap 'kill "${sleeper}" 2>/dev/null; exit 0' TERM
+  wait "${sleeper}"
+  echo "test_slurm: FAIL: not done after ${watchdog_seconds} s" >&2
+  kill -TERM $$; pkill -TERM -P $$ ) &
+watchdog=$!
 
 # Waits until COMMAND prints nothing (e.g. squeue of a finished job); fails after SECONDS.
 wait_empty() {
@@ -115,6 +126,13 @@ write_slurm_conf() {
   memory=$(slurmd -C | sed -n 's/.*RealMemory=\([0-9]*\).*/\1/p' | head -n 1)
   [ "${memory}" -gt 2000 ] && memory=2000
   mkdir -p "${state}/ctld" "${state}/spool"
+  # Another Slurm on this machine would leave our daemons unreachable until the time-out: say so at once.
+  python3 -c 'import socket,sys
+for port in (16817, 16818):
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try: s.bind(("127.0.0.1", port))
+        except OSError: sys.exit(f"port {port} is taken: another Slurm is running here")' || fail "ports 16817-16818 are not free"
   cat > "${state}/slurm.conf" <<EOF
 ClusterName=nnbtest
 SlurmctldHost=localhost
@@ -144,6 +162,8 @@ NodeName=${node} CPUs=${cpus} RealMemory=${memory} State=UNKNOWN
 PartitionName=debug Nodes=${node} Default=YES MaxTime=INFINITE State=UP
 EOF
   export SLURM_CONF="${state}/slurm.conf"
+  # This test is about Slurm: a developer's modified tree still gets its figures (provenance has its own tests).
+  export NNB_PLOT_FLAGS=--allow-dirty
 }
 
 start_slurm() {
