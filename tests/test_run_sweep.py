@@ -149,6 +149,27 @@ def case_resume():
     for name, rec in kept.items():
         if rec["type"] == "sweep":
             check(rec["found"] == whole_by_name[name]["found"], f"{name}: found differs between runs")
+    check_hostile_resume(args, partial, work)
+
+
+def check_hostile_resume(args, partial, work):
+    """A results file edited into something its reader cannot hold is refused with one line, left alone."""
+    def nested(depth):
+        return [nested(depth - 1)] if depth else []
+    count = json.loads(json.dumps(partial))
+    next(r for r in count["benchmarks"] if r["type"] == "sweep")["neighbours"] = 4.9e23
+    deep = json.loads(json.dumps(partial))
+    deep["context"]["note"] = nested(200)
+    resumed = json.loads(json.dumps(partial))
+    resumed["context"]["resumed"] = "yesterday"
+    for label, doc in (("count beyond size_t", count), ("200 levels deep", deep), ("resumed not a list", resumed)):
+        path = work / "hostile.json"
+        path.write_text(json.dumps(doc))
+        before = path.read_bytes()
+        proc = run(args + ["--out", str(path), "--resume"], expect=2)
+        check(len(proc.stderr.strip().splitlines()) == 1 and "error" in proc.stderr,
+              f"{label}: not one error line: {proc.stderr!r}")
+        check(path.read_bytes() == before, f"{label}: the refused resume changed the file")
 
 
 def case_budget():
