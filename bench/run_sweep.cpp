@@ -28,7 +28,7 @@ using nnb::bench::read_machine_info;
 
 struct Flags {
   std::string experiment = "quick";
-  std::string adapters, datasets, dists, out, data_dir;
+  std::string adapters, datasets, dists, out, data_dir, strategies;
   std::optional<int> repetitions;
   std::optional<double> budget_s;
   std::optional<std::size_t> points;
@@ -48,6 +48,7 @@ Experiment configure(const Flags& flags, const std::vector<std::string>& all_ada
   }
   if (!flags.datasets.empty()) e.pairs = parse_datasets(flags.datasets);
   if (!flags.dists.empty()) e.dists = parse_dists(flags.dists);
+  if (!flags.strategies.empty()) e.every_strategy = parse_strategies(flags.strategies);
   if (flags.repetitions) e.repetitions = *flags.repetitions;
   if (flags.budget_s) e.budget_s = *flags.budget_s;
   if (flags.points) e.synthetic_points = *flags.points;
@@ -85,6 +86,8 @@ int main(int argc, char** argv) {
   app.add_option("--adapters", flags.adapters, "comma-separated adapters (default: the experiment's)");
   app.add_option("--datasets", flags.datasets, "comma-separated data sets: NAME (model = query) or MODEL:QUERY");
   app.add_option("--dists", flags.dists, "swept maximal distances, start:stop:step in metres");
+  app.add_option("--strategies", flags.strategies,
+                 "ranged search with each adapter's default strategy ('default') or every one it offers ('all')");
   app.add_option("--repetitions", flags.repetitions, "timed calls per cell");
   app.add_option("--budget", flags.budget_s, "seconds per call above which larger distances are skipped");
   app.add_option("--points", flags.points, "points per synthetic data set (the paper: 60000)");

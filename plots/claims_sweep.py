@@ -1,7 +1,7 @@
 """Claims 1, 2, 3, 5 and 7: decided on the synthetic 4x4 sweep. Brute force is a reference, never a contender."""
 import math
 
-from results_io import SHAPES
+from results_io import SHAPES, is_default_strategy
 from verdict import FAILS, GRID_COMBINATIONS, HOLDS, UNTESTED, Verdict, basis, fmt_s, scoped, where
 
 KNN_ONLY = ("cgal_kdtree", "spatialindex_")  # names, or name prefixes ending in '_'
@@ -12,11 +12,13 @@ WINDOW_M = (0.30, 0.55)  # "near 1/3 to 1/2", one step of margin
 def grid(results):
     """{(model, query): {(adapter, kind): {max_dist or None: cell}}} over the synthetic combinations.
 
-    Approximate adapters answer another question, so they never compete."""
+    Approximate adapters answer another question, so they never compete; each adapter competes with its
+    default strategy (its own ranged search where it has one)."""
     out = {}
     approximate = {a for a, info in results.adapters.items() if info.get("exact") is False}
     for c in results.sweep:
-        if c.model in SHAPES and c.query in SHAPES and c.adapter != REFERENCE and c.adapter not in approximate:
+        if (c.model in SHAPES and c.query in SHAPES and c.adapter != REFERENCE and c.adapter not in approximate
+                and is_default_strategy(results, c)):
             out.setdefault((c.model, c.query), {}).setdefault((c.adapter, c.search), {})[c.max_dist_m] = c
     return out
 

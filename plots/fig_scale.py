@@ -3,7 +3,7 @@ and each adapter's growth exponent (least-squares slope of log time against log 
 import numpy as np
 
 import style
-from results_io import latest_builds, warn
+from results_io import is_default_strategy, latest_builds, warn
 
 plt = style.plt
 MIN_SIZES = 3  # a query searched against at least this many model sizes makes a scale series
@@ -14,7 +14,7 @@ def scale_cells(results):
     sizes (at least MIN_SIZES). Returns (key, cells) or (None, [])."""
     groups = {}
     for c in results.sweep:
-        if c.n_points is not None and c.n_queries:
+        if c.n_points is not None and c.n_queries and is_default_strategy(results, c):
             groups.setdefault((c.query, c.search, c.max_dist_m, c.k), []).append(c)
     sized = {key: cells for key, cells in groups.items() if len({c.n_points for c in cells}) >= MIN_SIZES}
     if not sized:

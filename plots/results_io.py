@@ -86,7 +86,8 @@ class Results:
         for key in ("library", "version", "structure"):
             if rec.get(key) and not info.get(key):
                 info[key] = str(rec[key])
-        if rec.get("search") in ("knn", "radius", "ranged") and rec.get("strategy"):
+        default = "/strategy:" not in str(rec.get("name", ""))  # another strategy than the default is named
+        if default and rec.get("search") in ("knn", "radius", "ranged") and rec.get("strategy"):
             info.setdefault(rec["search"], rec["strategy"])
         if isinstance(rec.get("exact"), bool):
             info.setdefault("exact", rec["exact"])
@@ -354,12 +355,21 @@ def display_path(path):
         return str(path)
 
 
-def sweep_series(results, model, query):
-    """{(adapter, search): sorted cells} for one model/query combination."""
+def is_default_strategy(results, cell):
+    """Whether the cell ran its adapter's default strategy for its search (the one the figures compare)."""
+    return cell.strategy == results.adapter_info(cell.adapter).get(cell.search, cell.strategy)
+
+
+def sweep_series(results, model, query, every_strategy=False):
+    """{(adapter, search): sorted cells} for one model/query combination, each adapter's default strategy;
+    with every_strategy, {(adapter, search, strategy): sorted cells} over every strategy run."""
     series = {}
     for cell in results.sweep:
         if cell.model == model and cell.query == query:
-            series.setdefault((cell.adapter, cell.search), []).append(cell)
+            if every_strategy:
+                series.setdefault((cell.adapter, cell.search, cell.strategy), []).append(cell)
+            elif is_default_strategy(results, cell):
+                series.setdefault((cell.adapter, cell.search), []).append(cell)
     for cells in series.values():
         cells.sort(key=lambda c: -1.0 if c.max_dist_m is None else c.max_dist_m)
     return series

@@ -38,10 +38,12 @@ FALLBACK_MARKERS = ("P", "v", "<", ">", "h", "*", "p", "d")
 
 # Line style by how a series is answered: ranged native, ranged emulated, fixed radius, k-NN.
 STRATEGY_LINESTYLE = {"native": "-", "emulated": (0, (5, 2)), "radius": (0, (1.2, 1.6)), "knn": (0, (6, 2, 1.2, 2))}
-STRATEGY_LEGEND = {"native": "ranged, native", "emulated": "ranged, emulated (via k-NN / radius / box)",
+STRATEGY_LEGEND = {"native": "ranged, the library's own call", "emulated": "ranged, emulated (via k-NN / radius / box)",
                    "radius": "fixed radius", "knn": "k-NN (flat: no distance limit)"}
 KIND_TEXT = {"ranged": "ranged", "radius": "radius", "knn": "k-NN"}
-STRATEGY_TEXT = {"native": "native", "via_knn": "via k-NN", "via_radius": "via radius", "via_box": "via box"}
+STRATEGY_TEXT = {"native": "native", "native_unpruned": "native, unpruned", "via_knn": "via k-NN",
+                 "via_radius": "via radius", "via_box": "via box"}
+LIBRARY_STRATEGIES = ("native", "native_unpruned")  # the library's own ranged call
 SKIP_MARKER = dict(marker="x", markersize=9, markeredgewidth=2.2, linestyle="none", zorder=5)
 
 
@@ -106,7 +108,7 @@ def strategy_class(kind, strategy):
     """native / emulated / radius / knn: the four line styles."""
     if kind in ("radius", "knn"):
         return kind
-    return "native" if strategy in (None, "native", "?") else "emulated"
+    return "native" if strategy in (None, "?") + LIBRARY_STRATEGIES else "emulated"
 
 
 def line_kw(adapter, kind, strategy=None, results=None):

@@ -1,7 +1,7 @@
 """Table 1: what each adapter's library offers, and how each search kind is answered. The one generator of
 the table from results files: table1.md beside the figures, the README's copy and the report use it."""
 from results_io import warn
-from style import STRATEGY_TEXT
+from style import LIBRARY_STRATEGIES, STRATEGY_TEXT
 
 HEADER = ["| adapter | library | version | data structure | precision | k-NN | fixed radius | ranged | exact | parameters |",
           "|---|---|---|---|---|---|---|---|---|---|"]
@@ -13,12 +13,19 @@ def _strategy(value):
     return STRATEGY_TEXT.get(value, "?" if value in (None, "") else str(value))
 
 
+def _ranged(info):
+    """Every ranged strategy the adapter offers, the default first; the library's own call in bold."""
+    offered = info.get("ranged_strategies") or [info.get("ranged")]
+    return "; ".join(f"**{_strategy(s)}**" if s in LIBRARY_STRATEGIES else _strategy(s) for s in offered)
+
+
 def _params(params):
     return ", ".join(f"{k}={v}" for k, v in sorted((params or {}).items())) or "-"
 
 
 def table1_lines(results):
-    """The table's Markdown lines, one row per adapter in the results' metadata."""
+    """The table's Markdown lines, one row per adapter in the results' metadata. The ranged column lists every
+    strategy offered, the default first, in bold where it is the library's own ranged call."""
     lines = list(HEADER)
     for name in sorted(results.adapters):
         info = results.adapters[name]
@@ -26,7 +33,7 @@ def table1_lines(results):
             warn(f"table1: adapter {name} has no library metadata; shown with '?'")
         exact = "yes" if info.get("exact") is not False else "**no (approximate)**"
         cells = [name, info.get("library") or "?", str(info.get("version") or "?"), info.get("structure") or "?",
-                 info.get("scalar") or "?", *(_strategy(info.get(k)) for k in ("knn", "radius", "ranged")),
+                 info.get("scalar") or "?", _strategy(info.get("knn")), _strategy(info.get("radius")), _ranged(info),
                  exact, _params(info.get("params"))]
         lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |")
     return lines

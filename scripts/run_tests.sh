@@ -10,5 +10,8 @@ for preset in release sanitize; do
   echo "=== ${preset}: configure, build, test ==="
   cmake --preset "${preset}"
   cmake --build --preset "${preset}" -j "${jobs}"
-  ctest --preset "${preset}" -j "${jobs}"
+  if ! ctest --preset "${preset}" -j "${jobs}"; then
+    python3 scripts/print_failed_tests.py "build/${preset}"
+    exit 1
+  fi
 done

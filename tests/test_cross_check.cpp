@@ -7,8 +7,10 @@
 #include "nnb/datasets/synthetic.hpp"
 #include "real_data.hpp"
 
+#include <algorithm>
 #include <limits>
 #include <random>
+#include <set>
 
 namespace {
 
@@ -49,8 +51,10 @@ struct Case {
 
 class CrossCheck : public ::testing::TestWithParam<Case> {
  protected:
-  // Runs one query kind on both indexes for every distance and k of interest, comparing each time.
-  void check_all(const Cloud& model, const Cloud& queries, const std::string& data_name) {
+  // Runs one query kind on both indexes for every distance and k of interest, comparing each time; ranged
+  // search with every strategy the adapter offers, or with its default only (the emulations are k-NN and
+  // radius searches, checked on their own).
+  void check_all(const Cloud& model, const Cloud& queries, const std::string& data_name, bool every_strategy = true) {
     auto reference = nnb::make_adapter("brute_force");
     auto index = nnb::make_adapter(GetParam().adapter);
     reference->build(model);
@@ -84,15 +88,23 @@ class CrossCheck : public ::testing::TestWithParam<Case> {
           if (!compare("radius r=" + std::to_string(r) + " m", false)) return;
         }
         break;
-      case SearchKind::ranged:
-        for (int k : {1, 4}) {
-          for (double d : dists_m) {
-            reference->ranged(queries, k, d, expected);
-            index->ranged(queries, k, d, got);
-            if (!compare("ranged k=" + std::to_string(k) + " max_dist=" + std::to_string(d) + " m", true)) return;
+      case SearchKind::ranged: {
+        auto strategies = index->info().strategies(SearchKind::ranged);
+        if (!every_strategy) strategies.resize(1);
+        for (const nnb::Strategy s : strategies) {
+          for (int k : {1, 4}) {
+            for (double d : dists_m) {
+              reference->ranged(queries, k, d, expected);
+              index->ranged(queries, k, d, got, s);
+              if (!compare("ranged " + std::string(nnb::to_string(s)) + " k=" + std::to_string(k) +
+                               " max_dist=" + std::to_string(d) + " m", true)) {
+                return;
+              }
+            }
           }
         }
         break;
+      }
     }
   }
 };
@@ -130,7 +142,7 @@ TEST_P(CrossCheck, SharedRealScans) {
     const Cloud near_far = subsample(query.points, 300);
     Cloud queries(3, near_far.cols() + 100);
     queries << near_far, model_points.leftCols(100);
-    check_all(model_points, queries, pair.name);
+    check_all(model_points, queries, pair.name, /*every_strategy=*/false);
   }
 }
 
@@ -168,8 +180,10 @@ class EdgeCase : public ::testing::TestWithParam<std::string> {
     index->radius(queries, dist_m, got);
     EXPECT_EQ(compare_with_reference(model, queries, expected, got, false), "") << "radius";
     reference->ranged(queries, k, dist_m, expected);
-    index->ranged(queries, k, dist_m, got);
-    EXPECT_EQ(compare_with_reference(model, queries, expected, got, true), "") << "ranged";
+    for (const nnb::Strategy s : index->info().strategies(SearchKind::ranged)) {
+      index->ranged(queries, k, dist_m, got, s);
+      EXPECT_EQ(compare_with_reference(model, queries, expected, got, true), "") << "ranged " << nnb::to_string(s);
+    }
   }
 };
 
@@ -281,8 +295,15 @@ TEST_P(EdgeCase, DeclaresItselfCompletely) {
   EXPECT_FALSE(info.version.empty());
   EXPECT_FALSE(info.structure.empty());
   EXPECT_TRUE(info.scalar == "float" || info.scalar == "double") << info.scalar;
-  EXPECT_TRUE(info.ranged == nnb::Strategy::native || info.ranged == nnb::Strategy::via_knn ||
-              info.ranged == nnb::Strategy::via_radius);
+  EXPECT_TRUE(info.ranged == nnb::Strategy::native || info.ranged == nnb::Strategy::native_unpruned ||
+              info.ranged == nnb::Strategy::via_knn || info.ranged == nnb::Strategy::via_radius);
+  const auto strategies = info.strategies(SearchKind::ranged);
+  EXPECT_EQ(strategies.front(), info.ranged);
+  EXPECT_EQ(std::set<nnb::Strategy>(strategies.begin(), strategies.end()).size(), strategies.size());
+  if (info.knn != nnb::Strategy::unsupported) {
+    EXPECT_NE(std::find(strategies.begin(), strategies.end(), nnb::Strategy::via_knn), strategies.end())
+        << "every adapter with k-NN can answer ranged search through it";
+  }
   const Cloud model = make_shape(Shape::filled_cube, 1000, 1);
   index->build(model);
   if (GetParam() != "brute_force") {

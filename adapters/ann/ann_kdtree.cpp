@@ -54,7 +54,7 @@ class AnnKdTree final : public SearchIndex {
     info.scalar = "double";
     info.knn = Strategy::native;
     info.radius = Strategy::native;
-    info.ranged = Strategy::via_knn;
+    info.ranged = Strategy::native_unpruned;
     ParamReader reader(info.name, params);
     reader.get_bucket("bucket_size", 1, 1, 1 << 20, 1, 64);
     info.params = reader.finish();
@@ -62,7 +62,8 @@ class AnnKdTree final : public SearchIndex {
     info.notes =
         "k clamped to the model size (ANN aborts the process otherwise); radius = annkFRSearch twice "
         "(k=0 for the count, then k=count), with a slightly inflated squared radius and an exact "
-        "sq_dist <= r*r filter; annClose() never called";
+        "sq_dist <= r*r filter; ranged = annkFRSearch with k, which keeps the k nearest but visits the whole "
+        "ball (it also counts every point within it), hence unpruned; annClose() never called";
     return info;
   }
 
@@ -108,6 +109,23 @@ class AnnKdTree final : public SearchIndex {
       out.end_query();
     }
     filter_by_sq_dist(radius_m * radius_m, out);
+  }
+
+  void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
+    const int keep = std::min(k, static_cast<int>(model_size()));
+    std::vector<ANNidx> indices(static_cast<std::size_t>(keep));
+    std::vector<ANNdist> sq_dists(static_cast<std::size_t>(keep));
+    out.reset(static_cast<std::size_t>(queries.cols()), static_cast<std::size_t>(keep) * queries.cols());
+    for (Eigen::Index q = 0; q < queries.cols(); ++q) {
+      double* query = const_cast<double*>(queries.col(q).data());
+      std::fill(indices.begin(), indices.end(), ANN_NULL_IDX);
+      tree_->annkFRSearch(query, inflated_sq_bound_m2(max_dist_m, query), keep, indices.data(), sq_dists.data(), 0.0);
+      for (int i = 0; i < keep; ++i) {
+        if (indices[i] != ANN_NULL_IDX) out.push(static_cast<PointIndex>(indices[i]), sq_dists[i]);
+      }
+      out.end_query();
+    }
+    filter_by_sq_dist(max_dist_m * max_dist_m, out);
   }
 
   int bucket_size_ = 1;

@@ -1,5 +1,6 @@
-// FLANN's exact single k-d tree (KDTreeSingleIndex) in float. FLANN has k-NN and radius search;
-// ranged search is k-NN then a distance cut, as the paper ran it.
+// FLANN's exact single k-d tree (KDTreeSingleIndex) in float. FLANN has k-NN, radius search and, since
+// 1.8, a native ranged search: radius search with SearchParams::max_neighbors, which keeps the k nearest
+// within the radius and prunes with the k-th (the paper's 2011 FLANN lacked it and ran k-NN then a cut).
 // dist.h must come first: kdtree_single_index.h uses it without including it. Including only this
 // index (not flann.hpp, which instantiates every index type) saves ~10 s of compile time.
 #include <flann/algorithms/dist.h>
@@ -59,7 +60,7 @@ class FlannKdTree final : public SearchIndex {
     info.scalar = "float";
     info.knn = Strategy::native;
     info.radius = Strategy::native;
-    info.ranged = Strategy::via_knn;
+    info.ranged = Strategy::native;
     info.exact = true;
     ParamReader reader(info.name, params);
     reader.get_bucket("leaf_size", 10, 1, 1 << 20, 1, 64);  // the paper's choice on synthetic data (15 on real scans)
@@ -69,7 +70,8 @@ class FlannKdTree final : public SearchIndex {
         "FLANN keeps d^2 < r^2 in float (drops points at r, finds nothing at r=0): float coordinates "
         "relative to the model's bounding-box centre, radius searched wider by 1e-5 + 1e-6 of the coordinates, "
         "distances recomputed in double and cut at <= r; k-NN asks k+1 and, when the (k+1)-th is within float error of "
-        "the k-th, adds a radius search so near-ties resolve as in double; single core";
+        "the k-th, adds a radius search so near-ties resolve as in double; ranged = FLANN's radius search with "
+        "max_neighbors = k+1 (KNNRadiusResultSet), made exact the same way; single core";
     return info;
   }
 
@@ -142,6 +144,24 @@ class FlannKdTree final : public SearchIndex {
     }
     recompute_sq_dists(*model_, queries, out);
     filter_by_sq_dist(radius_m * radius_m, out);
+  }
+
+  void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
+    std::vector<std::size_t> indices;
+    const auto ranged_row = [&](std::size_t q, std::size_t n, double search_m, FloatCandidates& row) {
+      const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
+      const float query_f[3] = {frame_.coord(query, 0), frame_.coord(query, 1), frame_.coord(query, 2)};
+      flann::KNNRadiusResultSet<float> result(static_cast<float>(search_m * search_m), n);
+      tree_->findNeighbors(result, query_f, exact_single_core(false));
+      indices.resize(result.size());
+      row.sq_dists_m2.resize(result.size());
+      result.copy(indices.data(), row.sq_dists_m2.data(), result.size(), false);
+      row.indices.assign(indices.begin(), indices.end());
+    };
+    const auto radius_row = [&](std::size_t q, double search_m, std::vector<PointIndex>& row) {
+      radius_candidates(queries.col(static_cast<Eigen::Index>(q)).data(), search_m, row);
+    };
+    exact_ranged(*model_, queries, static_cast<std::size_t>(k), max_dist_m, frame_, ranged_row, radius_row, out);
   }
 
   int leaf_size_ = 10;

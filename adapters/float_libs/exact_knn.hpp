@@ -77,4 +77,57 @@ std::size_t exact_knn(const Cloud& model, const Cloud& queries, std::size_t k, c
   return fallbacks;
 }
 
+/// Fills out with the exact k nearest within max_dist_m of each query, from a float library's own ranged
+/// search: ranged_search(q, n, search_m, candidates) must fill at most n of the library's nearest points
+/// closer than search_m in float (any order). It is asked for k+1 within a radius widened for float error.
+/// Fewer than k+1 back means every point that can count is among them. k+1 back means the library may
+/// have left out points as far as its farthest candidate: when that one is within float error of the k-th
+/// nearest in double (or of max_dist_m, when fewer than k lie within it), a radius search collects every
+/// contender, as in exact_knn. Returns the number of queries that needed the radius search.
+template <class RangedSearch, class RadiusSearch>
+std::size_t exact_ranged(const Cloud& model, const Cloud& queries, std::size_t k, double max_dist_m,
+                         const FloatFrame& frame, RangedSearch&& ranged_search, RadiusSearch&& radius_search,
+                         Neighbours& out) {
+  const auto model_size = static_cast<std::size_t>(model.cols());
+  const std::size_t kk = std::min(k, model_size);
+  const std::size_t asked = float_knn_candidates(kk, model_size);
+  const double limit_sq_m2 = max_dist_m * max_dist_m;
+  const auto n_queries = static_cast<std::size_t>(queries.cols());
+  out.reset(n_queries);
+  FloatCandidates candidates;
+  std::vector<PointIndex> contenders;
+  std::vector<std::pair<double, PointIndex>> row;
+  std::size_t fallbacks = 0;
+  const auto fill_row = [&](const double* query, const std::vector<PointIndex>& indices) {
+    row.clear();
+    for (const PointIndex index : indices) row.emplace_back(sq_dist_m2(query, model.col(index).data()), index);
+    std::sort(row.begin(), row.end());
+  };
+  for (std::size_t q = 0; q < n_queries; ++q) {
+    const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
+    ranged_search(q, asked, frame.search_radius_m(query, max_dist_m), candidates);
+    if (candidates.indices.size() > asked) {
+      throw std::logic_error("float ranged search returned " + std::to_string(candidates.indices.size()) +
+                             " neighbours, more than the " + std::to_string(asked) + " asked");
+    }
+    fill_row(query, candidates.indices);
+    if (candidates.indices.size() == asked && asked > kk) {
+      const float farthest_sq_m2 = *std::max_element(candidates.sq_dists_m2.begin(), candidates.sq_dists_m2.end());
+      const auto within = static_cast<std::size_t>(
+          std::upper_bound(row.begin(), row.end(), std::make_pair(limit_sq_m2, PointIndex(-1))) - row.begin());
+      const double bound_m = within >= kk ? std::sqrt(row[kk - 1].first) : max_dist_m;
+      if (!frame.surely_beyond(query, std::sqrt(static_cast<double>(farthest_sq_m2)), bound_m)) {
+        ++fallbacks;
+        radius_search(q, frame.search_radius_m(query, bound_m), contenders);
+        fill_row(query, contenders);
+      }
+    }
+    for (std::size_t i = 0; i < std::min(kk, row.size()) && row[i].first <= limit_sq_m2; ++i) {
+      out.push(row[i].second, row[i].first);
+    }
+    out.end_query();
+  }
+  return fallbacks;
+}
+
 }  // namespace nnb::adapters

@@ -35,6 +35,26 @@ void pcl_exact_knn(PclSearch& search, const FloatFrame& frame, const Cloud& mode
   exact_knn(model, queries, static_cast<std::size_t>(k), frame, knn_row, radius_row, out);
 }
 
+/// Exact k nearest within max_dist_m from PCL's radius search limited to k+1 points (max_nn), which PCL's
+/// k-d tree hands to FLANN as max_neighbors: a pruned ranged search.
+template <class PclSearch>
+void pcl_exact_ranged(PclSearch& search, const FloatFrame& frame, const Cloud& model, const Cloud& queries, int k,
+                      double max_dist_m, Neighbours& out) {
+  pcl::Indices indices;
+  std::vector<float> sq_dists;
+  const auto ranged_row = [&](std::size_t q, std::size_t n, double search_m, FloatCandidates& row) {
+    search.radiusSearch(to_pcl(frame, queries.col(static_cast<Eigen::Index>(q)).data()), search_m, indices,
+                        row.sq_dists_m2, static_cast<unsigned int>(n));
+    row.indices.assign(indices.begin(), indices.end());
+  };
+  const auto radius_row = [&](std::size_t q, double search_m, std::vector<PointIndex>& row) {
+    search.radiusSearch(to_pcl(frame, queries.col(static_cast<Eigen::Index>(q)).data()), search_m, indices, sq_dists,
+                        0);
+    row.assign(indices.begin(), indices.end());
+  };
+  exact_ranged(model, queries, static_cast<std::size_t>(k), max_dist_m, frame, ranged_row, radius_row, out);
+}
+
 /// Every point within radius_m (inclusive, in double) from a PCL search run slightly wider in float.
 template <class PclSearch>
 void pcl_exact_radius(PclSearch& search, const FloatFrame& frame, const Cloud& model, const Cloud& queries,

@@ -1,6 +1,6 @@
 // Open3D's geometry::KDTreeFlann (nanoflann inside, 15 points a leaf, double). k-NN = SearchKNN,
 // radius = SearchRadius, ranged = SearchHybrid. Note that Open3D implements SearchHybrid as a k-NN
-// search followed by a cut at the radius, so "native" ranged here is not a pruned ranged search.
+// search followed by a cut at the radius: its own ranged search, but not a pruned one (native_unpruned).
 #include <open3d/Open3DConfig.h>
 #include <open3d/geometry/KDTreeFlann.h>
 
@@ -37,7 +37,7 @@ class Open3dKdTree final : public SearchIndex {
     info.scalar = "double";
     info.knn = Strategy::native;
     info.radius = Strategy::native;
-    info.ranged = Strategy::native;
+    info.ranged = Strategy::native_unpruned;
     info.exact = true;
     info.params = ParamReader(info.name, params).finish();  // Open3D fixes the leaf size at 15
     info.notes =

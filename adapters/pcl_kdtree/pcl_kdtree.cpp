@@ -1,5 +1,6 @@
 // PCL's k-d tree, pcl::KdTreeFLANN<PointXYZ>: FLANN's KDTreeSingleIndex inside, leaf size fixed at 15 by
-// PCL, float. One query at a time (PCL has no batch call); ranged search is k-NN then a distance cut.
+// PCL, float. One query at a time (PCL has no batch call); ranged search is radiusSearch with max_nn, which
+// PCL passes on to FLANN as max_neighbors (the k nearest within the radius, pruned).
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/pcl_config.h>
 #include <pcl/point_cloud.h>
@@ -36,14 +37,15 @@ class PclKdTree final : public SearchIndex {
     info.scalar = "float";
     info.knn = Strategy::native;
     info.radius = Strategy::native;
-    info.ranged = Strategy::via_knn;
+    info.ranged = Strategy::native;
     info.exact = true;
     info.params = ParamReader(info.name, params).finish();  // PCL fixes the leaf size at 15
     info.notes =
         "PCL's FLANN keeps d^2 < r^2 in float (drops points at r, finds nothing at r=0): float coordinates "
         "relative to the model's bounding-box centre, radius searched wider by 1e-5 + 1e-6 of the coordinates, "
         "distances recomputed in double and cut at <= r; k-NN asks k+1 and, when the (k+1)-th is within float error of "
-        "the k-th, adds a radius search so near-ties resolve as in double";
+        "the k-th, adds a radius search so near-ties resolve as in double; ranged = radiusSearch with max_nn = k+1, "
+        "made exact the same way";
     return info;
   }
 
@@ -65,6 +67,10 @@ class PclKdTree final : public SearchIndex {
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
     pcl_exact_radius(*tree_, frame_, *model_, queries, radius_m, out);
+  }
+
+  void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
+    pcl_exact_ranged(*tree_, frame_, *model_, queries, k, max_dist_m, out);
   }
 
   FloatFrame frame_;

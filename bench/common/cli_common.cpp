@@ -88,13 +88,25 @@ void warn_if_not_release(std::ostream& err) {
   }
 }
 
+namespace {
+
+// Every ranged strategy an adapter offers, the default first, each written by text().
+template <class Text>
+std::string strategy_list(const AdapterInfo& info, const char* separator, Text text) {
+  std::string list;
+  for (const Strategy s : info.strategies(SearchKind::ranged)) list += (list.empty() ? "" : separator) + std::string(text(s));
+  return list;
+}
+
+}  // namespace
+
 void print_adapter_list(std::ostream& out) {
   for (const auto& entry : adapter_registry()) {
     const auto index = entry.make({});
     const auto& info = index->info();
     out << info.name << "\t" << info.library << " " << info.version << "\t" << info.structure
         << "\tknn:" << to_string(info.knn) << " radius:" << to_string(info.radius)
-        << " ranged:" << to_string(info.ranged) << (info.exact ? "" : "\tAPPROXIMATE") << "\n";
+        << " ranged:" << strategy_list(info, ",", [](Strategy s) { return to_string(s); }) << (info.exact ? "" : "\tAPPROXIMATE") << "\n";
   }
 }
 
@@ -103,6 +115,7 @@ namespace {
 std::string table_cell(Strategy strategy) {
   switch (strategy) {
     case Strategy::native: return "native";
+    case Strategy::native_unpruned: return "native, unpruned";
     case Strategy::via_knn: return "via k-NN";
     case Strategy::via_radius: return "via radius";
     case Strategy::via_box: return "via box + filter";
@@ -124,7 +137,7 @@ std::string table1_markdown() {
     for (const auto& [name, value] : info.params) params += (params.empty() ? "" : ", ") + name + "=" + value;
     md << "| " << info.name << " | " << info.library << " | " << info.version << " | " << info.structure
        << (info.exact ? "" : " (approximate)") << " | " << info.scalar << " | " << table_cell(info.knn) << " | "
-       << table_cell(info.radius) << " | " << table_cell(info.ranged) << " | " << params << " |\n";
+       << table_cell(info.radius) << " | " << strategy_list(info, "; ", table_cell) << " | " << params << " |\n";
   }
   return md.str();
 }

@@ -118,6 +118,13 @@ std::vector<DataPair> parse_datasets(const std::string& text) {
   return pairs;
 }
 
+bool parse_strategies(const std::string& text) {
+  if (text != "default" && text != "all") {
+    throw InputError("strategies must be 'default' or 'all' (got '" + text + "')");
+  }
+  return text == "all";
+}
+
 Experiment load_experiment(const std::string& path, const std::vector<std::string>& all_adapters) {
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot read the experiment file");
@@ -129,7 +136,7 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
   }
   if (!doc.is_object()) throw InputError(path + ": an experiment is a JSON object");
   static const std::set<std::string> known{
-      "name", "description", "pairs", "grid", "real_pairs", "adapters", "searches", "k", "dists", "repetitions",
+      "name", "description", "pairs", "grid", "real_pairs", "adapters", "searches", "strategies", "k", "dists", "repetitions",
       "build_repetitions", "budget_seconds", "max_cell_seconds", "neighbour_budget", "synthetic_points", "seed",
       "memory_limit_gib", "skip_larger_models", "cell_timeout_seconds"};
   for (const auto& item : doc.items()) {
@@ -160,6 +167,7 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
     e.adapters = get<std::vector<std::string>>(doc, "adapters", path);
   }
   if (doc.contains("searches")) e.searches = get<std::vector<std::string>>(doc, "searches", path);
+  if (doc.contains("strategies")) e.every_strategy = parse_strategies(get<std::string>(doc, "strategies", path));
   if (doc.contains("k")) e.ks = get_whole_list(doc, "k", path);
   if (doc.contains("dists")) e.dists = parse_dists(get<std::string>(doc, "dists", path));
   if (doc.contains("repetitions")) e.repetitions = get_whole<int>(doc, "repetitions", path);

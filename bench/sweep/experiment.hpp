@@ -38,6 +38,7 @@ struct Experiment {
   std::vector<DataPair> pairs;
   std::vector<std::string> adapters;  ///< in registry order; from "all" when the file says so
   std::vector<std::string> searches{"ranged", "knn", "radius"};  ///< kinds considered (see runner.hpp)
+  bool every_strategy = false;  ///< ranged search with every strategy an adapter offers, not only its default
   std::vector<int> ks{1};
   DistRange dists;
   int repetitions = 3;
@@ -58,6 +59,8 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
 DistRange parse_dists(const std::string& text);
 /// Parses "a,b:c": a name alone is the pair (a, a), "model:query" a combination.
 std::vector<DataPair> parse_datasets(const std::string& text);
+/// Parses "default" (each adapter's default ranged strategy) or "all" (every one it offers): true for "all".
+bool parse_strategies(const std::string& text);
 /// Splits a comma-separated list, dropping empty items.
 std::vector<std::string> split_list(const std::string& text);
 /// Throws InputError for anything a run cannot do (unknown adapter, step <= 0, negative distance...).

@@ -32,6 +32,12 @@ struct ResultsFile::Json {
 
 namespace {
 
+ordered_json strategy_names(const std::vector<Strategy>& strategies) {
+  ordered_json names = ordered_json::array();
+  for (const Strategy s : strategies) names.push_back(to_string(s));
+  return names;
+}
+
 ordered_json config_of(const RunDescription& run) {
   const Experiment& e = *run.experiment;
   ordered_json c;
@@ -43,7 +49,7 @@ ordered_json config_of(const RunDescription& run) {
     ordered_json kinds = ordered_json::array();
     for (auto kind : a.kinds) kinds.push_back(to_string(kind));
     c["adapters"].push_back({{"name", a.name}, {"version", a.info.version}, {"params", a.info.params},
-                             {"searches", kinds}});
+                             {"searches", kinds}, {"ranged_strategies", strategy_names(a.ranged_strategies)}});
   }
   c["k"] = e.ks;
   c["dists"] = {{"start_m", e.dists.start_m}, {"stop_m", e.dists.stop_m}, {"step_m", e.dists.step_m}};
@@ -54,6 +60,7 @@ ordered_json config_of(const RunDescription& run) {
   c["neighbour_budget"] = e.neighbour_budget;
   c["synthetic_points"] = e.synthetic_points;
   c["seed"] = e.seed;
+  c["strategies"] = e.every_strategy ? "all" : "default";
   c["memory_limit_gib"] = e.memory_limit_gib;
   c["skip_larger_models"] = e.skip_larger_models;
   c["build_type"] = run.build.build_type;
@@ -89,6 +96,7 @@ ordered_json context_of(const RunDescription& run) {
     c["adapters"][i.name] = {{"library", i.library}, {"version", i.version}, {"structure", i.structure},
                              {"scalar", i.scalar}, {"exact", i.exact}, {"knn", to_string(i.knn)},
                              {"radius", to_string(i.radius)}, {"ranged", to_string(i.ranged)},
+                             {"ranged_strategies", strategy_names(i.strategies(SearchKind::ranged))},
                              {"params", i.params}, {"notes", i.notes}};
   }
   c["datasets"] = datasets_of(*run.data);

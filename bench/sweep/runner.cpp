@@ -34,6 +34,7 @@ struct Cell {
 
 struct Group {
   SearchKind kind;
+  Strategy strategy;
   std::optional<int> k;
   std::vector<Cell> cells;
 };
@@ -57,30 +58,42 @@ std::string seconds_text(double s) {
   return out.str();
 }
 
+// A ranged strategy other than the adapter's default gets its own component in the cell names.
+std::string kind_component(SearchKind kind, Strategy strategy, const PlannedAdapter& adapter) {
+  std::string text = std::string(to_string(kind)) + "/";
+  if (kind == SearchKind::ranged && strategy != adapter.info.ranged) text += "strategy:" + std::string(to_string(strategy)) + "/";
+  return text;
+}
+
 std::vector<Group> groups_for(const Experiment& e, const DataPair& pair, const PlannedAdapter& adapter) {
   const std::string prefix = "sweep/" + name_component(pair.model) + "/" + name_component(pair.query) + "/" + adapter.name + "/";
   const auto dists = e.dists.values();
   const int decimals = e.dists.decimals();
   std::vector<Group> groups;
   for (SearchKind kind : adapter.kinds) {
+    const Strategy strategy = adapter.info.strategy(kind);
     if (kind == SearchKind::knn) {
       for (int k : e.ks) {
-        groups.push_back({kind, k, {{prefix + "knn/k:" + std::to_string(k), std::nullopt, ""}}});
+        groups.push_back({kind, strategy, k, {{prefix + "knn/k:" + std::to_string(k), std::nullopt, ""}}});
       }
       continue;
     }
     std::vector<std::optional<int>> ks;
     if (kind == SearchKind::radius) ks.push_back(std::nullopt);
     else ks.assign(e.ks.begin(), e.ks.end());
-    for (const auto& k : ks) {
-      Group group{kind, k, {}};
-      std::string base = prefix + to_string(kind) + "/";
-      if (k && *k != 1) base += "k:" + std::to_string(*k) + "/";
-      for (double d : dists) {
-        const std::string label = format_dist(d, decimals);
-        group.cells.push_back({base + "max_dist:" + label, d, label});
+    const std::vector<Strategy> strategies = kind == SearchKind::ranged ? adapter.ranged_strategies
+                                                                        : std::vector<Strategy>{strategy};
+    for (const Strategy s : strategies) {
+      for (const auto& k : ks) {
+        Group group{kind, s, k, {}};
+        std::string base = prefix + kind_component(kind, s, adapter);
+        if (k && *k != 1) base += "k:" + std::to_string(*k) + "/";
+        for (double d : dists) {
+          const std::string label = format_dist(d, decimals);
+          group.cells.push_back({base + "max_dist:" + label, d, label});
+        }
+        groups.push_back(std::move(group));
       }
-      groups.push_back(std::move(group));
     }
   }
   return groups;
@@ -171,7 +184,7 @@ Record sweep_record(const DataPair& pair, const PlannedAdapter& adapter, const G
   r.adapter = adapter.name;
   r.exact = adapter.info.exact;
   r.search = to_string(group.kind);
-  r.strategy = to_string(adapter.info.strategy(group.kind));
+  r.strategy = to_string(group.strategy);
   r.max_dist_m = cell.max_dist_m;
   r.k = group.k;
   return r;
@@ -188,7 +201,7 @@ double run_cell(const SearchIndex& index, const Cloud& queries, const Group& gro
     switch (group.kind) {
       case SearchKind::knn: index.knn(queries, *group.k, out); break;
       case SearchKind::radius: index.radius(queries, *cell.max_dist_m, out); break;
-      case SearchKind::ranged: index.ranged(queries, *group.k, *cell.max_dist_m, out); break;
+      case SearchKind::ranged: index.ranged(queries, *group.k, *cell.max_dist_m, out, group.strategy); break;
     }
     const auto t1 = std::chrono::steady_clock::now();
     cpu.push_back(cpu_now_s() - cpu0);
@@ -245,7 +258,11 @@ std::vector<PlannedAdapter> plan_adapters(const Experiment& e) {
   std::vector<PlannedAdapter> planned;
   for (const auto& name : e.adapters) {
     PlannedAdapter a{name, make_adapter(name)->info(), {}};
-    if (wants(SearchKind::ranged)) a.kinds.push_back(SearchKind::ranged);
+    if (wants(SearchKind::ranged)) {
+      a.kinds.push_back(SearchKind::ranged);
+      a.ranged_strategies = a.info.strategies(SearchKind::ranged);
+      if (!e.every_strategy) a.ranged_strategies.resize(1);
+    }
     for (SearchKind kind : {SearchKind::knn, SearchKind::radius}) {
       const Strategy s = a.info.strategy(kind);
       if (wants(kind) && (s == Strategy::native || s == Strategy::via_box)) a.kinds.push_back(kind);

@@ -30,6 +30,7 @@ struct PlannedAdapter {
   std::string name;
   AdapterInfo info;
   std::vector<SearchKind> kinds;
+  std::vector<Strategy> ranged_strategies;  ///< the default first; empty when ranged search is not run
 };
 
 /// Thrown by a sink once SIGINT or SIGTERM has arrived and the checkpoint holding every finished cell is

@@ -154,7 +154,7 @@ def scale_records():
             per_query = 1e-7 * (n / SCALE_SIZES[0]) ** q_exp
             build_s = 1e-3 * (n / SCALE_SIZES[0]) ** b_exp
             cell = {"name": f"sweep/{model}/city-q/{adapter}/ranged/max_dist:0.10", "model": model, "query": "city-q",
-                    "adapter": adapter, "search": "ranged", "strategy": "native", "k": 1, "max_dist": 0.1,
+                    "adapter": adapter, "search": "ranged", "strategy": ADAPTERS[adapter][2]["ranged"], "k": 1, "max_dist": 0.1,
                     "n_points": n, "n_queries": SCALE_QUERIES, "run_type": "iteration", "time_unit": "s",
                     "real_time": per_query * SCALE_QUERIES, "median_s": per_query * SCALE_QUERIES}
             build = {"name": f"build/{model}/{adapter}", "model": model, "adapter": adapter, "n_points": n,

@@ -37,7 +37,7 @@ class MakeFiguresTest(unittest.TestCase):
                 self.assertGreater(path.stat().st_size, 5000, path)
         table = (out / "table1.md").read_text()
         for expected in ("| flann_kdtree | FLANN | 1.0 | k-d tree | ? | native | native | via k-NN |",
-                         "| ours_octree | ours | 1.0 | octree | ? | via box | via box | native |"):
+                         "| ours_octree | ours | 1.0 | octree | ? | via box | via box | **native** |"):
             self.assertIn(expected, table)
 
     def test_absent_data_skips_figures_with_a_message(self):

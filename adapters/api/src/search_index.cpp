@@ -21,6 +21,7 @@ const char* to_string(SearchKind kind) {
 const char* to_string(Strategy strategy) {
   switch (strategy) {
     case Strategy::native: return "native";
+    case Strategy::native_unpruned: return "native_unpruned";
     case Strategy::via_knn: return "via_knn";
     case Strategy::via_radius: return "via_radius";
     case Strategy::via_box: return "via_box";
@@ -43,6 +44,16 @@ Strategy AdapterInfo::strategy(SearchKind kind) const {
     case SearchKind::ranged: return ranged;
   }
   return knn;
+}
+
+std::vector<Strategy> AdapterInfo::strategies(SearchKind kind) const {
+  std::vector<Strategy> all{strategy(kind)};
+  if (kind != SearchKind::ranged || ranged == Strategy::unsupported) return all;
+  if (ranged != Strategy::via_knn && knn != Strategy::unsupported) all.push_back(Strategy::via_knn);
+  if (ranged != Strategy::via_radius && (radius == Strategy::native || radius == Strategy::via_box)) {
+    all.push_back(Strategy::via_radius);
+  }
+  return all;
 }
 
 namespace {
@@ -110,12 +121,20 @@ void SearchIndex::radius(const Cloud& queries, double radius_m, Neighbours& out)
 }
 
 void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const {
+  ranged(queries, k, max_dist_m, out, info_.ranged);
+}
+
+void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out, Strategy strategy) const {
   check_supported(SearchKind::ranged);
+  const auto offered = info_.strategies(SearchKind::ranged);
+  if (std::find(offered.begin(), offered.end(), strategy) == offered.end()) {
+    throw InputError(info_.name + " does not answer ranged search " + to_string(strategy));
+  }
   check_k(info_.name, k);
   check_distance(info_.name, "max_dist", max_dist_m);
   check_queries(queries);
   k = useful_k(k);
-  switch (info_.ranged) {
+  switch (strategy) {
     case Strategy::via_knn:
       do_knn(queries, k, out);
       filter_by_sq_dist(max_dist_m * max_dist_m, out);

@@ -20,6 +20,7 @@ enum class SearchKind { knn, radius, ranged };
 /// How an adapter answers one query kind: this is what the paper compares, so it is data.
 enum class Strategy {
   native,      ///< the library answers this query itself
+  native_unpruned,  ///< the library's own ranged call, but it visits the whole ball (or runs k-NN and cuts)
   via_knn,     ///< k-NN search, then drop what lies beyond the limit (ranged)
   via_radius,  ///< radius search, then keep the k nearest (ranged)
   via_box,     ///< box intersection, then an exact distance filter (radius on R-trees)
@@ -57,7 +58,11 @@ struct AdapterInfo {
   std::optional<BucketParam> bucket;
   std::string notes;      ///< workarounds the adapter applies, in one line
 
+  /// The default strategy for a kind: the library's own when it has one.
   Strategy strategy(SearchKind kind) const;
+  /// Every strategy this adapter can answer a kind with, the default first: a ranged search can always be
+  /// emulated by k-NN, and by radius search when the library has one.
+  std::vector<Strategy> strategies(SearchKind kind) const;
 };
 
 /// A spatial index over one model cloud, answering whole query sets at a time.
@@ -79,8 +84,10 @@ class SearchIndex {
   void knn(const Cloud& queries, int k, Neighbours& out) const;
   /// Every point within radius_m (metres, inclusive) of each query, in the library's order.
   void radius(const Cloud& queries, double radius_m, Neighbours& out) const;
-  /// The k nearest points within max_dist_m (metres, inclusive) of each query, nearest first.
+  /// The k nearest points within max_dist_m (metres, inclusive) of each query, nearest first, answered
+  /// with the default strategy or with one of info().strategies(SearchKind::ranged).
   void ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const;
+  void ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out, Strategy strategy) const;
 
   /// Bytes the index holds beyond the model points themselves (nodes, buckets, copies).
   virtual std::size_t index_bytes() const = 0;
@@ -93,7 +100,7 @@ class SearchIndex {
   virtual void do_knn(const Cloud& queries, int k, Neighbours& out) const = 0;
   /// Called when info().radius is native or via_box.
   virtual void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const;
-  /// Called when info().ranged is native.
+  /// Called for the ranged strategies native and native_unpruned.
   virtual void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const;
 
  private:
