@@ -115,6 +115,60 @@ def fig3(results, out_dir):
     return style.save(fig, out_dir, "fig3_hollow_cube_vs_hollow_sphere")
 
 
+STRATEGY_ORDER = ("native", "native_unpruned", "via_knn", "via_radius", "via_box")
+STRATEGY_COLOUR = {"native": "#1b6ca8", "native_unpruned": "#6a3d9a", "via_knn": "#d95f02", "via_radius": "#1b9e77",
+                   "via_box": "#7f7f7f"}
+STRATEGY_DASH = {"native": "-", "native_unpruned": "-", "via_knn": (0, (5, 2)), "via_radius": (0, (1.2, 1.6)),
+                 "via_box": (0, (6, 2, 1.2, 2))}
+
+
+def ranged_strategies(results, model, query):
+    """{adapter: {strategy: cells}} of the ranged series of one combination, for adapters run with more than
+    one strategy."""
+    by_adapter = {}
+    for (adapter, kind, strategy), cells in sweep_series(results, model, query, every_strategy=True).items():
+        if kind == "ranged":
+            by_adapter.setdefault(adapter, {})[strategy] = cells
+    return {a: s for a, s in by_adapter.items() if len(s) > 1}
+
+
+def fig3_strategies(results, out_dir):
+    """Figure 3's pair with every ranged strategy each adapter offers: one small panel per adapter, a line per
+    strategy (the library's own call, k-NN then a cut, radius search then the k nearest)."""
+    model, query = FIG3
+    shown = ranged_strategies(results, model, query)
+    if not shown:
+        warn("fig3_strategies: no adapter ran ranged search with more than one strategy: figure skipped")
+        return None
+    adapters = sorted(shown, key=lambda a: (style.family(a), a))
+    cols = 4
+    rows = math.ceil(len(adapters) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(style.PAGE_WIDTH_IN, 1.75 * rows + 1.2), sharex=True, sharey=True,
+                             squeeze=False)
+    dists = _panel_distances({k: v for a in shown for k, v in shown[a].items()})
+    used = set()
+    for ax, adapter in zip(axes.flat, adapters):
+        for strategy in sorted(shown[adapter], key=lambda s: STRATEGY_ORDER.index(s) if s in STRATEGY_ORDER else 99):
+            xs, ys = series_xy(shown[adapter][strategy], dists)
+            ax.plot(xs, ys, color=STRATEGY_COLOUR.get(strategy, "black"), linestyle=STRATEGY_DASH.get(strategy, "-"),
+                    linewidth=1.5)
+            used.add(strategy)
+        ax.set_title(style.short_label(adapter, results), fontsize=9)
+        style.log_y(ax)
+    for ax in list(axes.flat)[len(adapters):]:
+        ax.axis("off")
+    handles = [plt.Line2D([], [], color=STRATEGY_COLOUR.get(s, "black"), linestyle=STRATEGY_DASH.get(s, "-"),
+                          linewidth=1.5, label="ranged " + style.STRATEGY_TEXT.get(s, s))
+               for s in STRATEGY_ORDER if s in used]
+    fig.legend(handles=handles, loc="upper center", ncol=len(handles), bbox_to_anchor=(0.5, 0.985 - 0.25 / rows))
+    fig.supxlabel("maximal distance (m)")
+    fig.supylabel("time for all queries (s)")
+    fig.suptitle(f"Figure 3, every ranged strategy: {query.replace('_', ' ')} queries against a "
+                 f"{model.replace('_', ' ')} model, 1-NN (\"native\": the library's own ranged call)", y=0.995)
+    fig.tight_layout(rect=(0, 0, 1, 0.985 - 0.6 / rows))
+    return style.save(fig, out_dir, "fig3_strategies")
+
+
 def _score(series, key, dists, penalty):
     """Mean log time over the panel's distances; a skipped cell costs `penalty` seconds."""
     xs, ys = series_xy(series[key], dists)

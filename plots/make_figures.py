@@ -48,6 +48,7 @@ def main(argv=None):
     write_table1(results, args.out)
     fig_icp.fig2(results, args.out)
     fig_sweep.fig3(results, args.out)
+    fig_sweep.fig3_strategies(results, args.out)
     fig_build.fig4(results, args.out)
     fig_icp.fig5(results, args.out)
     fig_sweep.grid(results, args.out, best=False)

@@ -63,6 +63,22 @@ def sweep_figure(results, model, query, title):
     return figure(traces, title, "maximal distance (m)", "time for all queries (s)")
 
 
+def strategies_figure(results, model, query):
+    """Every ranged strategy of every adapter run with more than one: a trace per (adapter, strategy)."""
+    shown = fig_sweep.ranged_strategies(results, model, query)
+    dists = fig_sweep._panel_distances({k: v for a in shown for k, v in shown[a].items()})
+    traces = []
+    for adapter in sorted(shown, key=lambda a: (style.family(a), a)):
+        for strategy, cells in sorted(shown[adapter].items()):
+            xs, ys = fig_sweep.series_xy(cells, dists)
+            ys = [None if y != y else y for y in ys]
+            if any(y is not None for y in ys):
+                traces.append(trace(xs, ys, style.series_label(adapter, "ranged", strategy, results), adapter,
+                                    results, "ranged", strategy, group=adapter))
+    return figure(traces, "every ranged strategy, by adapter (click a legend entry to hide it)",
+                  "maximal distance (m)", "time for all queries (s)")
+
+
 def build_figure(results):
     table = fig_build.build_table(results)
     models = fig_build.model_order(results, {m for m, _ in table})
@@ -131,8 +147,10 @@ def all_figures(results):
     sections = []
     model, query = fig_sweep.FIG3
     if results_io.sweep_series(results, model, query):
-        sections.append(("Figure 3: the paper's pair", [sweep_figure(results, model, query,
-                                                                     "hollow cube queries, hollow sphere model")]))
+        figs = [sweep_figure(results, model, query, "hollow cube queries, hollow sphere model")]
+        if fig_sweep.ranged_strategies(results, model, query):
+            figs.append(strategies_figure(results, model, query))
+        sections.append(("Figure 3: the paper's pair", figs))
     grid = [sweep_figure(results, m, q, f"model {m}, query {q}") for m in results_io.SHAPES
             for q in results_io.SHAPES if results_io.sweep_series(results, m, q) and (m, q) != fig_sweep.FIG3]
     if grid:

@@ -314,7 +314,8 @@ def load(paths, prefer=None):
             elif kind == "icp":
                 _read_icp(results, rec, experiment_of(context))
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
-    results.sweep = _one_k(_last_wins(results.sweep, lambda c: (c.model, c.query, c.adapter, c.search, c.max_dist_m, c.k)))
+    results.sweep = _one_k(_last_wins(results.sweep,
+                                      lambda c: (c.model, c.query, c.adapter, c.search, c.strategy, c.max_dist_m, c.k)))
     results.icp = _last_wins(results.icp, lambda r: (r.experiment, r.pair, r.adapter, r.search, r.bucket_size))
     return results
 

@@ -69,7 +69,7 @@ def check_record_fields(rec):
         check(name == f"build/{rec['model']}/{rec['adapter']}", f"{name}: build name")
         return
     check(rec["search"] in ("ranged", "knn", "radius"), f"{name}: search {rec['search']}")
-    check(rec["strategy"] in ("native", "via_knn", "via_radius", "via_box"), f"{name}: strategy")
+    check(rec["strategy"] in ("native", "native_unpruned", "via_knn", "via_radius", "via_box"), f"{name}: strategy")
     if rec["search"] == "knn":
         check("max_dist" not in rec and isinstance(rec.get("k"), int), f"{name}: knn has max_dist or no k")
     else:

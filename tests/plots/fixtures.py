@@ -127,10 +127,26 @@ def write(path, experiment, records, **context_args):
     return path
 
 
+def strategy_records(adapter="flann_kdtree", model="hollow_sphere", query="hollow_cube"):
+    """An adapter's ranged search on one pair with its other strategies (k-NN then a cut, radius search),
+    named as run_sweep --strategies all names them."""
+    records = []
+    for strategy, factor in (("via_knn", 1.4), ("via_radius", 2.5)):
+        for d in DISTS:
+            seconds = factor * cell_seconds(adapter, "ranged", "native", d, SPEED, {})
+            records.append({"name": f"sweep/{model}/{query}/{adapter}/ranged/strategy:{strategy}/max_dist:{d:.2f}",
+                            "model": model, "query": query, "adapter": adapter, "search": "ranged",
+                            "strategy": strategy, "k": 1, "max_dist": d, "repetitions": 3, "run_type": "iteration",
+                            "iterations": 1, "real_time": seconds, "cpu_time": seconds, "time_unit": "s",
+                            "median_seconds": seconds, "found": 100, "dist_sum": 1.0})
+    return records
+
+
 def write_all(directory, speed=None, build_s=None, index_bytes=None, best_bucket=10, kind_factor=None):
     """A full set of results files (sweep+build, icp_bucket, icp_real) in directory; returns their paths."""
     directory = Path(directory)
-    return [write(directory / "sweep.json", "paper", sweep_records(speed, kind_factor=kind_factor) + build_records(build_s, index_bytes)),
+    return [write(directory / "sweep.json", "paper", sweep_records(speed, kind_factor=kind_factor) + strategy_records()
+                  + build_records(build_s, index_bytes)),
             write(directory / "icp_bucket.json", "icp_bucket", icp_bucket_records(best_bucket)),
             write(directory / "icp_real.json", "icp_real", icp_real_records())]
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import fixtures
 
 SCRIPT = fixtures.PLOTS_DIR / "make_figures.py"
-FIGURES = ("fig2_icp_bucket", "fig3_hollow_cube_vs_hollow_sphere", "fig4_construction", "fig5_icp_real",
+FIGURES = ("fig2_icp_bucket", "fig3_hollow_cube_vs_hollow_sphere", "fig3_strategies", "fig4_construction", "fig5_icp_real",
            "fig6_grid_all", "fig7_grid_best")
 
 
