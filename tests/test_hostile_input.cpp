@@ -154,6 +154,43 @@ TEST(CoordinateRange, EveryAdapterIsExactAtTheBound) {
   }
 }
 
+TEST(CoordinateRange, EveryAdapterIsExactFarFromATinyModel) {
+  // A model 0.1 mm across and queries 1e9 and 1e15 m away: grids and bins sized by the model put such a
+  // query billions of cells off (an integer cell index overflows), and float distances lose the model.
+  const Cloud model = random_cloud(200, 1e-4, 6);
+  Cloud queries = random_cloud(12, 1e-4, 7);
+  queries.rightCols(8) << 1e9, -1e9, 1e9, 0, 1e15, -1e15, 0, 1e15,  //
+      0, 1e9, -1e9, 1e9, 0, 1e15, -1e15, 3e-5,                      //
+      0, 0, 1e9, -1e9, 0, 0, 1e15, -1e15;
+  auto reference = nnb::make_adapter("brute_force", {});
+  reference->build(model);
+  for (const double dist_m : {1e-5, 2e9, 1e16}) {
+    nnb::Neighbours expected_knn, expected_ranged, expected_radius;
+    reference->knn(queries, 3, expected_knn);
+    reference->ranged(queries, 3, dist_m, expected_ranged);
+    reference->radius(queries, dist_m, expected_radius);
+    for (const auto& name : nnb::adapter_names()) {
+      auto index = nnb::make_adapter(name, {});
+      if (!index->info().exact) continue;
+      index->build(model);
+      nnb::Neighbours got;
+      const std::string where = name + " at max_dist " + std::to_string(dist_m) + " m";
+      index->knn(queries, 3, got);
+      EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_knn, got, false), "") << where << " knn";
+      for (const nnb::Strategy s : index->info().strategies(nnb::SearchKind::ranged)) {
+        index->ranged(queries, 3, dist_m, got, s);
+        EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_ranged, got, false), "")
+            << where << " ranged " << nnb::to_string(s);
+      }
+      if (index->info().radius != nnb::Strategy::unsupported) {
+        index->radius(queries, dist_m, got);
+        EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_radius, got, false), "")
+            << where << " radius";
+      }
+    }
+  }
+}
+
 // ---------------------------------------------------------------- counts claimed by headers
 
 TEST(ClaimedCounts, AsciiPcdClaimingFiftyMillionPointsIsRefusedWithoutAllocating) {

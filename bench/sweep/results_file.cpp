@@ -137,9 +137,10 @@ ordered_json to_json(const Record& r) {
   j["repetition_index"] = 0;
   j["threads"] = 1;
   j["iterations"] = r.repetitions;
-  j["real_time"] = number_or_marker(r.wall.median_s);
-  j["cpu_time"] = number_or_marker(r.cpu.median_s);
-  j["time_unit"] = "s";
+  // Milliseconds, so that Google Benchmark's compare.py prints readable values (it rounds to whole units).
+  j["real_time"] = number_or_marker(1e3 * r.wall.median_s);
+  j["cpu_time"] = number_or_marker(1e3 * r.cpu.median_s);
+  j["time_unit"] = "ms";
   j["type"] = r.type == Record::Type::build ? "build" : "sweep";
   j["model"] = r.model;
   if (r.type == Record::Type::sweep) j["query"] = r.query;
