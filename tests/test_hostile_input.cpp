@@ -125,33 +125,43 @@ TEST(CoordinateRange, EveryAdapterRefusesModelAndQueriesBeyondTheBound) {
   }
 }
 
-TEST(CoordinateRange, EveryAdapterIsExactAtTheBound) {
-  // The contract is only worth its name if every library answers exactly up to it.
-  const double bound = nnb::kMaxAbsCoordinate_m;
-  Cloud model = random_cloud(200, bound, 4);
-  model.col(0) << bound, -bound, bound;
-  const Cloud queries = random_cloud(20, bound, 5);
+// Every exact adapter answers k-NN (k = 3), ranged search with each of its strategies and radius search at
+// dist_m exactly as brute force does on (model, queries).
+void expect_every_exact_adapter_as_brute_force(const Cloud& model, const Cloud& queries, double dist_m) {
   auto reference = nnb::make_adapter("brute_force", {});
   reference->build(model);
-  const double dist_m = 0.5 * bound;
   nnb::Neighbours expected_knn, expected_ranged, expected_radius;
   reference->knn(queries, 3, expected_knn);
   reference->ranged(queries, 3, dist_m, expected_ranged);
   reference->radius(queries, dist_m, expected_radius);
+  const auto same = [&](const nnb::Neighbours& expected, const nnb::Neighbours& got) {
+    return nnb::testing::compare_with_reference(model, queries, expected, got, false);
+  };
   for (const auto& name : nnb::adapter_names()) {
     auto index = nnb::make_adapter(name, {});
     if (!index->info().exact) continue;
     index->build(model);
     nnb::Neighbours got;
+    const std::string where = name + " at " + std::to_string(dist_m) + " m";
     index->knn(queries, 3, got);
-    EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_knn, got, false), "") << name << " knn";
-    index->ranged(queries, 3, dist_m, got);
-    EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_ranged, got, false), "") << name << " ranged";
+    EXPECT_EQ(same(expected_knn, got), "") << where << " knn";
+    for (const nnb::Strategy s : index->info().strategies(nnb::SearchKind::ranged)) {
+      index->ranged(queries, 3, dist_m, got, s);
+      EXPECT_EQ(same(expected_ranged, got), "") << where << " ranged " << nnb::to_string(s);
+    }
     if (index->info().radius != nnb::Strategy::unsupported) {
       index->radius(queries, dist_m, got);
-      EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_radius, got, false), "") << name << " radius";
+      EXPECT_EQ(same(expected_radius, got), "") << where << " radius";
     }
   }
+}
+
+TEST(CoordinateRange, EveryAdapterIsExactAtTheBound) {
+  // The contract is only worth its name if every library answers exactly up to it.
+  const double bound = nnb::kMaxAbsCoordinate_m;
+  Cloud model = random_cloud(200, bound, 4);
+  model.col(0) << bound, -bound, bound;
+  expect_every_exact_adapter_as_brute_force(model, random_cloud(20, bound, 5), 0.5 * bound);
 }
 
 TEST(CoordinateRange, EveryAdapterIsExactFarFromATinyModel) {
@@ -162,33 +172,7 @@ TEST(CoordinateRange, EveryAdapterIsExactFarFromATinyModel) {
   queries.rightCols(8) << 1e9, -1e9, 1e9, 0, 1e15, -1e15, 0, 1e15,  //
       0, 1e9, -1e9, 1e9, 0, 1e15, -1e15, 3e-5,                      //
       0, 0, 1e9, -1e9, 0, 0, 1e15, -1e15;
-  auto reference = nnb::make_adapter("brute_force", {});
-  reference->build(model);
-  for (const double dist_m : {1e-5, 2e9, 1e16}) {
-    nnb::Neighbours expected_knn, expected_ranged, expected_radius;
-    reference->knn(queries, 3, expected_knn);
-    reference->ranged(queries, 3, dist_m, expected_ranged);
-    reference->radius(queries, dist_m, expected_radius);
-    for (const auto& name : nnb::adapter_names()) {
-      auto index = nnb::make_adapter(name, {});
-      if (!index->info().exact) continue;
-      index->build(model);
-      nnb::Neighbours got;
-      const std::string where = name + " at max_dist " + std::to_string(dist_m) + " m";
-      index->knn(queries, 3, got);
-      EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_knn, got, false), "") << where << " knn";
-      for (const nnb::Strategy s : index->info().strategies(nnb::SearchKind::ranged)) {
-        index->ranged(queries, 3, dist_m, got, s);
-        EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_ranged, got, false), "")
-            << where << " ranged " << nnb::to_string(s);
-      }
-      if (index->info().radius != nnb::Strategy::unsupported) {
-        index->radius(queries, dist_m, got);
-        EXPECT_EQ(nnb::testing::compare_with_reference(model, queries, expected_radius, got, false), "")
-            << where << " radius";
-      }
-    }
-  }
+  for (const double dist_m : {1e-5, 2e9, 1e16}) expect_every_exact_adapter_as_brute_force(model, queries, dist_m);
 }
 
 // ---------------------------------------------------------------- counts claimed by headers

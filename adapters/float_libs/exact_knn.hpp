@@ -1,5 +1,5 @@
 #pragma once
-// Exact k-NN on top of a float library's k-NN. Recomputing the library's k nearest in double is not
+// Exact k-NN and ranged search on top of a float library's own. Recomputing the library's k nearest in double is not
 // enough: when two points compete for the k-th place within float rounding (~1e-7 of the cloud's
 // extent) the library may return the wrong one, and the right one is then missing. So the library is
 // asked for k+1: if its (k+1)-th candidate is, even allowing for float error, farther than the k-th
@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -30,53 +31,6 @@ struct FloatCandidates {
   std::vector<float> sq_dists_m2;
 };
 
-/// Fills out with the exact k nearest of each query (nearest first, ties to the lowest index).
-/// knn_search(q, n, candidates) must fill the library's n nearest of query column q (any order);
-/// radius_search(q, radius_m, indices) every point whose float distance is below radius_m (metres).
-/// Returns the number of queries that needed the radius search.
-template <class KnnSearch, class RadiusSearch>
-std::size_t exact_knn(const Cloud& model, const Cloud& queries, std::size_t k, const FloatFrame& frame,
-                      KnnSearch&& knn_search, RadiusSearch&& radius_search, Neighbours& out) {
-  const auto model_size = static_cast<std::size_t>(model.cols());
-  const std::size_t kk = std::min(k, model_size);
-  const std::size_t asked = float_knn_candidates(kk, model_size);
-  const auto n_queries = static_cast<std::size_t>(queries.cols());
-  out.reset(n_queries, n_queries * kk);
-  FloatCandidates candidates;
-  std::vector<PointIndex> contenders;
-  std::vector<std::pair<double, PointIndex>> row;
-  std::size_t fallbacks = 0;
-  const auto fill_row = [&](const double* query, const std::vector<PointIndex>& indices) {
-    row.clear();
-    for (const PointIndex index : indices) row.emplace_back(sq_dist_m2(query, model.col(index).data()), index);
-  };
-  for (std::size_t q = 0; q < n_queries; ++q) {
-    const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
-    knn_search(q, asked, candidates);
-    if (candidates.indices.size() != asked) {
-      throw std::logic_error("float k-NN returned " + std::to_string(candidates.indices.size()) + " of " +
-                             std::to_string(asked) + " neighbours");
-    }
-    fill_row(query, candidates.indices);
-    std::sort(row.begin(), row.end());
-    if (asked > kk && kk > 0) {
-      // Every point the library left out is at least as far as its farthest candidate, in float.
-      const float next_sq_m2 = *std::max_element(candidates.sq_dists_m2.begin(), candidates.sq_dists_m2.end());
-      const double kth_m = std::sqrt(row[kk - 1].first);
-      if (!frame.surely_beyond(query, std::sqrt(static_cast<double>(next_sq_m2)), kth_m)) {
-        ++fallbacks;
-        radius_search(q, frame.search_radius_m(query, kth_m), contenders);
-        fill_row(query, contenders);
-        std::partial_sort(row.begin(), row.begin() + static_cast<std::ptrdiff_t>(std::min(kk, row.size())),
-                          row.end());
-      }
-    }
-    for (std::size_t i = 0; i < std::min(kk, row.size()); ++i) out.push(row[i].second, row[i].first);
-    out.end_query();
-  }
-  return fallbacks;
-}
-
 /// Fills out with the exact k nearest within max_dist_m of each query, from a float library's own ranged
 /// search: ranged_search(q, n, search_m, candidates) must fill at most n of the library's nearest points
 /// closer than search_m in float (any order). It is asked for k+1 within a radius widened for float error.
@@ -93,7 +47,7 @@ std::size_t exact_ranged(const Cloud& model, const Cloud& queries, std::size_t k
   const std::size_t asked = float_knn_candidates(kk, model_size);
   const double limit_sq_m2 = max_dist_m * max_dist_m;
   const auto n_queries = static_cast<std::size_t>(queries.cols());
-  out.reset(n_queries);
+  out.reset(n_queries, std::isinf(max_dist_m) ? n_queries * kk : 0);  // k-NN fills every row
   FloatCandidates candidates;
   std::vector<PointIndex> contenders;
   std::vector<std::pair<double, PointIndex>> row;
@@ -128,6 +82,23 @@ std::size_t exact_ranged(const Cloud& model, const Cloud& queries, std::size_t k
     out.end_query();
   }
   return fallbacks;
+}
+
+/// Fills out with the exact k nearest of each query (nearest first, ties to the lowest index): exact_ranged
+/// without a limit. knn_search(q, n, candidates) must fill the library's n nearest of query column q (any
+/// order); radius_search(q, radius_m, indices) every point whose float distance is below radius_m (metres).
+template <class KnnSearch, class RadiusSearch>
+std::size_t exact_knn(const Cloud& model, const Cloud& queries, std::size_t k, const FloatFrame& frame,
+                      KnnSearch&& knn_search, RadiusSearch&& radius_search, Neighbours& out) {
+  const auto knn_as_ranged = [&](std::size_t q, std::size_t n, double, FloatCandidates& candidates) {
+    knn_search(q, n, candidates);
+    if (candidates.indices.size() != n) {
+      throw std::logic_error("float k-NN returned " + std::to_string(candidates.indices.size()) + " of " +
+                             std::to_string(n) + " neighbours");
+    }
+  };
+  return exact_ranged(model, queries, k, std::numeric_limits<double>::infinity(), frame, knn_as_ranged,
+                      radius_search, out);
 }
 
 }  // namespace nnb::adapters
