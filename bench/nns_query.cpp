@@ -19,7 +19,7 @@
 namespace {
 
 struct Options {
-  std::string model, query, adapter = "brute_force", search = "ranged", out, stats;
+  std::string model, query, adapter = "brute_force", search = "ranged", strategy, out, stats;
   int k = 1;
   double max_dist_m = 0.1;
   int repeat = 1;
@@ -28,6 +28,20 @@ struct Options {
   nnb::datasets::DataOptions data;
   bool list = false, table1 = false;
 };
+
+// --strategy for ranged search (one the adapter offers), else the adapter's default for the kind.
+nnb::Strategy chosen_strategy(const Options& opt, nnb::SearchKind kind, const nnb::AdapterInfo& info) {
+  if (opt.strategy.empty()) return info.strategy(kind);
+  if (kind != nnb::SearchKind::ranged) throw nnb::InputError("--strategy chooses how ranged search is answered");
+  const nnb::Strategy strategy = nnb::parse_strategy(opt.strategy);
+  const auto offered = info.strategies(kind);
+  if (std::find(offered.begin(), offered.end(), strategy) == offered.end()) {
+    std::string names;
+    for (const nnb::Strategy s : offered) names += (names.empty() ? "" : ", ") + std::string(nnb::to_string(s));
+    throw nnb::InputError(info.name + " does not answer ranged search " + opt.strategy + " (it offers " + names + ")");
+  }
+  return strategy;
+}
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -103,6 +117,7 @@ int run(const Options& opt) {
   if (opt.repeat < 1) throw nnb::InputError("--repeat must be at least 1");
   const nnb::SearchKind kind = nnb::parse_search_kind(opt.search);
   auto index = nnb::make_adapter(opt.adapter, nnb::cli::parse_params(opt.params));
+  const nnb::Strategy strategy = chosen_strategy(opt, kind, index->info());
   nnb::cli::warn_if_not_release(std::cerr);
 
   const auto model = nnb::datasets::resolve_cloud(opt.model, nnb::datasets::Role::model, opt.data);
@@ -125,7 +140,7 @@ int run(const Options& opt) {
     switch (kind) {
       case nnb::SearchKind::knn: index->knn(query.points, opt.k, found); break;
       case nnb::SearchKind::radius: index->radius(query.points, opt.max_dist_m, found); break;
-      case nnb::SearchKind::ranged: index->ranged(query.points, opt.k, opt.max_dist_m, found); break;
+      case nnb::SearchKind::ranged: index->ranged(query.points, opt.k, opt.max_dist_m, found, strategy); break;
     }
     query_seconds.push_back(seconds_since(start));
   }
@@ -144,7 +159,7 @@ int run(const Options& opt) {
         {"adapter", info.name},
         {"library", info.library},
         {"library_version", info.version},
-        {"strategy", nnb::to_string(info.strategy(kind))},
+        {"strategy", nnb::to_string(strategy)},
         {"params", info.params},
         {"search", opt.search},
         {"k", opt.k},
@@ -180,6 +195,9 @@ int main(int argc, char** argv) {
   app.add_option("--query", opt.query, "Query cloud: a file, a shape, or a real pair (its query scan at its pose)");
   app.add_option("--adapter", opt.adapter, "Adapter name (see --list)")->capture_default_str();
   app.add_option("--search", opt.search, "knn, radius or ranged")->capture_default_str();
+  app.add_option("--strategy", opt.strategy,
+                 "How ranged search is answered: native, native_unpruned, via_knn or via_radius (default: the "
+                 "adapter's own; --list shows what each offers)");
   app.add_option("--k", opt.k, "Neighbours per query (knn, ranged)")->capture_default_str();
   app.add_option("--max-dist", opt.max_dist_m, "Maximal distance / radius in metres")->capture_default_str();
   app.add_option("--param", opt.params, "Adapter parameter NAME=VALUE (repeatable), e.g. bucket_size=5");

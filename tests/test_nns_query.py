@@ -77,6 +77,40 @@ class Answers(unittest.TestCase):
             self.assertEqual(answer, answers["brute_force"], name)
 
 
+    def test_every_ranged_strategy_gives_the_same_csv(self):
+        common = ["--model", "filled_cube", "--query", "hollow_sphere", "--points", "400", "--search", "ranged",
+                  "--k", "2", "--max-dist", "0.15"]
+        answers = {}
+        for adapter, strategy in (("flann_kdtree", ""), ("flann_kdtree", "via_knn"), ("flann_kdtree", "via_radius"),
+                                  ("ann_kdtree", "native_unpruned"), ("brute_force", "native")):
+            out, stats = os.path.join(self.dir, "s.csv"), os.path.join(self.dir, "s.json")
+            extra = ["--strategy", strategy] if strategy else []
+            result = run("--adapter", adapter, *common, *extra, "--out", out, "--stats", stats)
+            if result.returncode != 0 and "unknown adapter" in result.stderr:
+                continue  # built without that library
+            self.assertEqual(result.returncode, 0, result.stderr)
+            with open(stats) as f:
+                self.assertEqual(json.load(f)["strategy"], strategy or "native", f"{adapter} {strategy}")
+            with open(out) as f:
+                answers[(adapter, strategy)] = f.read()
+        reference = answers[("brute_force", "native")]
+        for key, answer in answers.items():
+            self.assertEqual(answer, reference, key)
+
+    def test_a_strategy_the_adapter_lacks_is_refused_with_one_line(self):
+        for adapter, args, words in (("vtk_kdtree_locator", ["--strategy", "native"], "offers"),
+                                     ("brute_force", ["--strategy", "sideways"], "unknown strategy"),
+                                     ("brute_force", ["--search", "knn", "--strategy", "via_knn"], "ranged")):
+            result = run("--adapter", adapter, "--model", "hollow_sphere", "--query", "hollow_cube", "--points", "100",
+                         *args)
+            if "unknown adapter" in result.stderr:
+                continue  # built without that library
+            lines = [l for l in result.stderr.splitlines() if l.strip() and "WARNING" not in l]
+            self.assertEqual(result.returncode, 2, result.stderr)
+            self.assertEqual(len(lines), 1, lines)
+            self.assertIn(words, lines[0])
+
+
 class BadInput(unittest.TestCase):
     """Each: exit code 2, one line on stderr naming the problem, no output file left behind."""
 

@@ -37,6 +37,14 @@ SearchKind parse_search_kind(const std::string& text) {
   throw InputError("unknown search kind '" + text + "' (expected knn, radius or ranged)");
 }
 
+Strategy parse_strategy(const std::string& text) {
+  for (const Strategy s : {Strategy::native, Strategy::native_unpruned, Strategy::via_knn, Strategy::via_radius,
+                           Strategy::via_box, Strategy::unsupported}) {
+    if (text == to_string(s)) return s;
+  }
+  throw InputError("unknown strategy '" + text + "' (expected native, native_unpruned, via_knn, via_radius or via_box)");
+}
+
 Strategy AdapterInfo::strategy(SearchKind kind) const {
   switch (kind) {
     case SearchKind::knn: return knn;

@@ -31,6 +31,8 @@ const char* to_string(SearchKind kind);
 const char* to_string(Strategy strategy);
 /// Parses "knn", "radius" or "ranged"; throws InputError otherwise.
 SearchKind parse_search_kind(const std::string& text);
+/// Parses a strategy's name as to_string writes it ("via_knn"...); throws InputError otherwise.
+Strategy parse_strategy(const std::string& text);
 
 /// Adapter parameters by name (e.g. "bucket_size" -> "10"), as given by a user or reported back.
 using Params = std::map<std::string, std::string>;
