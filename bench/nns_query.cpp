@@ -34,12 +34,7 @@ nnb::Strategy chosen_strategy(const Options& opt, nnb::SearchKind kind, const nn
   if (opt.strategy.empty()) return info.strategy(kind);
   if (kind != nnb::SearchKind::ranged) throw nnb::InputError("--strategy chooses how ranged search is answered");
   const nnb::Strategy strategy = nnb::parse_strategy(opt.strategy);
-  const auto offered = info.strategies(kind);
-  if (std::find(offered.begin(), offered.end(), strategy) == offered.end()) {
-    std::string names;
-    for (const nnb::Strategy s : offered) names += (names.empty() ? "" : ", ") + std::string(nnb::to_string(s));
-    throw nnb::InputError(info.name + " does not answer ranged search " + opt.strategy + " (it offers " + names + ")");
-  }
+  nnb::check_offered(info, kind, strategy);  // before the clouds are loaded
   return strategy;
 }
 

@@ -86,8 +86,7 @@ class Results:
         for key in ("library", "version", "structure"):
             if rec.get(key) and not info.get(key):
                 info[key] = str(rec[key])
-        default = "/strategy:" not in str(rec.get("name", ""))  # another strategy than the default is named
-        if default and rec.get("search") in ("knn", "radius", "ranged") and rec.get("strategy"):
+        if rec.get("search") in ("knn", "radius", "ranged") and rec.get("strategy"):
             info.setdefault(rec["search"], rec["strategy"])
         if isinstance(rec.get("exact"), bool):
             info.setdefault("exact", rec["exact"])

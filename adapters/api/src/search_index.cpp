@@ -45,6 +45,14 @@ Strategy parse_strategy(const std::string& text) {
   throw InputError("unknown strategy '" + text + "' (expected native, native_unpruned, via_knn, via_radius or via_box)");
 }
 
+void check_offered(const AdapterInfo& info, SearchKind kind, Strategy strategy) {
+  if (info.offers(kind, strategy)) return;
+  std::string names;
+  for (const Strategy s : info.strategies(kind)) names += (names.empty() ? "" : ", ") + std::string(to_string(s));
+  throw InputError(info.name + " does not answer " + to_string(kind) + " search " + to_string(strategy) +
+                   " (it offers " + names + ")");
+}
+
 Strategy AdapterInfo::strategy(SearchKind kind) const {
   switch (kind) {
     case SearchKind::knn: return knn;
@@ -54,12 +62,18 @@ Strategy AdapterInfo::strategy(SearchKind kind) const {
   return knn;
 }
 
+bool AdapterInfo::offers(SearchKind kind, Strategy s) const {
+  if (s == strategy(kind)) return s != Strategy::unsupported;
+  if (kind != SearchKind::ranged || ranged == Strategy::unsupported) return false;
+  if (s == Strategy::via_knn) return knn != Strategy::unsupported;
+  if (s == Strategy::via_radius) return radius == Strategy::native || radius == Strategy::via_box;
+  return false;
+}
+
 std::vector<Strategy> AdapterInfo::strategies(SearchKind kind) const {
   std::vector<Strategy> all{strategy(kind)};
-  if (kind != SearchKind::ranged || ranged == Strategy::unsupported) return all;
-  if (ranged != Strategy::via_knn && knn != Strategy::unsupported) all.push_back(Strategy::via_knn);
-  if (ranged != Strategy::via_radius && (radius == Strategy::native || radius == Strategy::via_box)) {
-    all.push_back(Strategy::via_radius);
+  for (const Strategy s : {Strategy::via_knn, Strategy::via_radius}) {
+    if (s != all.front() && offers(kind, s)) all.push_back(s);
   }
   return all;
 }
@@ -134,10 +148,7 @@ void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbo
 
 void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out, Strategy strategy) const {
   check_supported(SearchKind::ranged);
-  const auto offered = info_.strategies(SearchKind::ranged);
-  if (std::find(offered.begin(), offered.end(), strategy) == offered.end()) {
-    throw InputError(info_.name + " does not answer ranged search " + to_string(strategy));
-  }
+  check_offered(info_, SearchKind::ranged, strategy);
   check_k(info_.name, k);
   check_distance(info_.name, "max_dist", max_dist_m);
   check_queries(queries);

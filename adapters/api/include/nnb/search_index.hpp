@@ -62,10 +62,15 @@ struct AdapterInfo {
 
   /// The default strategy for a kind: the library's own when it has one.
   Strategy strategy(SearchKind kind) const;
-  /// Every strategy this adapter can answer a kind with, the default first: a ranged search can always be
-  /// emulated by k-NN, and by radius search when the library has one.
+  /// Whether this adapter can answer a kind with the strategy: its default, or for ranged search an
+  /// emulation by k-NN, or by radius search when the library has one.
+  bool offers(SearchKind kind, Strategy strategy) const;
+  /// Every strategy offered for a kind, the default first.
   std::vector<Strategy> strategies(SearchKind kind) const;
 };
+
+/// Throws InputError, naming what the adapter offers, unless info.offers(kind, strategy).
+void check_offered(const AdapterInfo& info, SearchKind kind, Strategy strategy);
 
 /// A spatial index over one model cloud, answering whole query sets at a time.
 ///
