@@ -98,7 +98,7 @@ class Answers(unittest.TestCase):
             self.assertEqual(answer, reference, key)
 
     def test_a_strategy_the_adapter_lacks_is_refused_with_one_line(self):
-        for adapter, args, words in (("vtk_kdtree_locator", ["--strategy", "native"], "offers"),
+        for adapter, args, words in (("vtk_kdtree", ["--strategy", "native"], "offers"),
                                      ("brute_force", ["--strategy", "sideways"], "unknown strategy"),
                                      ("brute_force", ["--search", "knn", "--strategy", "via_knn"], "ranged")):
             result = run("--adapter", adapter, "--model", "hollow_sphere", "--query", "hollow_cube", "--points", "100",

@@ -57,7 +57,7 @@ class CountedPointLocator final : public vtkPointLocator {
 
 struct PointLocator {
   using Locator = CountedPointLocator;
-  static constexpr const char* name = "vtk_point_locator";
+  static constexpr const char* name = "vtk_pointlocator";
   static constexpr const char* structure = "uniform bins (hash table of id lists)";
   static constexpr int default_points_per_bucket = 3;  // vtkPointLocator's constructor
   static std::size_t bytes(Locator& locator, std::size_t) { return locator.table_bytes(); }
@@ -65,7 +65,7 @@ struct PointLocator {
 
 struct StaticPointLocator {
   using Locator = vtkStaticPointLocator;
-  static constexpr const char* name = "vtk_static_point_locator";
+  static constexpr const char* name = "vtk_static";
   static constexpr const char* structure = "uniform bins (ids sorted by bin)";
   static constexpr int default_points_per_bucket = 1;  // vtkStaticPointLocator's constructor
   // A (point id, bucket) pair per point plus one, and an offset per bucket plus one, in int or vtkIdType.
@@ -279,11 +279,11 @@ class VtkBins final : public SearchIndex {
 
 }  // namespace
 
-std::unique_ptr<SearchIndex> make_vtk_point_locator(const Params& params) {
+std::unique_ptr<SearchIndex> make_vtk_pointlocator(const Params& params) {
   return std::make_unique<VtkBins<PointLocator>>(params);
 }
 
-std::unique_ptr<SearchIndex> make_vtk_static_point_locator(const Params& params) {
+std::unique_ptr<SearchIndex> make_vtk_static(const Params& params) {
   return std::make_unique<VtkBins<StaticPointLocator>>(params);
 }
 

@@ -69,7 +69,7 @@ class SizedKdTreeLocator final : public vtkKdTreePointLocator {
 
 struct KdTree {
   using Locator = SizedKdTreeLocator;
-  static constexpr const char* name = "vtk_kdtree_locator";
+  static constexpr const char* name = "vtk_kdtree";
   static constexpr const char* structure = "k-d tree";
   static constexpr const char* bucket_name = "min_cells";  // vtkKdTree::MinCells, points per region
   static constexpr int default_bucket = 100;               // vtkKdTree's constructor
@@ -82,7 +82,7 @@ struct KdTree {
 
 struct Octree {
   using Locator = vtkOctreePointLocator;
-  static constexpr const char* name = "vtk_octree_locator";
+  static constexpr const char* name = "vtk_octree";
   static constexpr const char* structure = "octree";
   static constexpr const char* bucket_name = "max_points_per_region";  // vtkOctreePointLocator's setting
   static constexpr int default_bucket = 100;                            // its constructor
@@ -219,11 +219,11 @@ class VtkTree final : public SearchIndex {
 
 }  // namespace
 
-std::unique_ptr<SearchIndex> make_vtk_kdtree_locator(const Params& params) {
+std::unique_ptr<SearchIndex> make_vtk_kdtree(const Params& params) {
   return std::make_unique<VtkTree<KdTree>>(params);
 }
 
-std::unique_ptr<SearchIndex> make_vtk_octree_locator(const Params& params) {
+std::unique_ptr<SearchIndex> make_vtk_octree(const Params& params) {
   return std::make_unique<VtkTree<Octree>>(params);
 }
 

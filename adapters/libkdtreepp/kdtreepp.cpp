@@ -111,7 +111,7 @@ class LibKdTreePP final : public SearchIndex {
  private:
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
-    info.name = "libkdtreepp_kdtree";
+    info.name = "kdtreepp";
     info.library = "libkdtree++";
     info.version = libkdtree_version();
     info.structure = "k-d tree";
@@ -185,7 +185,7 @@ class LibKdTreePP final : public SearchIndex {
 
 }  // namespace
 
-std::unique_ptr<SearchIndex> make_libkdtreepp_kdtree(const Params& params) {
+std::unique_ptr<SearchIndex> make_kdtreepp(const Params& params) {
   return std::make_unique<LibKdTreePP>(params);
 }
 

@@ -64,7 +64,7 @@ class Open3dHash final : public SearchIndex {
 
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
-    info.name = "open3d_hash";
+    info.name = "open3d_hashgrid";
     info.library = "Open3D";
     info.version = OPEN3D_VERSION;
     info.structure = "spatial hash (voxels of 2r, one table per radius)";
@@ -311,7 +311,7 @@ class Open3dHash final : public SearchIndex {
 
 }  // namespace
 
-std::unique_ptr<SearchIndex> make_open3d_hash(const Params& params) {
+std::unique_ptr<SearchIndex> make_open3d_hashgrid(const Params& params) {
   return std::make_unique<Open3dHash>(params);
 }
 
