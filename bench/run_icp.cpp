@@ -190,6 +190,11 @@ std::vector<Setting> settings_of(const icp::Experiment& e, const std::vector<nnb
     const std::string bucket_param = bucket_param_of(info);
     std::vector<std::optional<int>> buckets{std::nullopt};
     if (!e.bucket_sizes.empty() && !bucket_param.empty()) buckets.assign(e.bucket_sizes.begin(), e.bucket_sizes.end());
+    const auto best = e.best_buckets.find(info.name);
+    if (buckets.front() == std::nullopt && !bucket_param.empty() && best != e.best_buckets.end() &&
+        !params_of(e, info.name).count(bucket_param)) {
+      buckets.front() = best->second;
+    }
     for (const auto& bucket : buckets) {
       nnb::Params params = params_of(e, info.name);
       if (bucket) params[bucket_param] = std::to_string(*bucket);
@@ -343,6 +348,7 @@ void run_units(const icp::Plan& plan, int shard, const icp::Experiment& e, const
 
 struct ExperimentFlags {
   std::string name, out, shard;
+  std::optional<std::string> buckets_from;  ///< overrides the experiment's; "none": each adapter's default
   bool resume = false, plan = false, plan_json = false;
 };
 
@@ -369,8 +375,19 @@ icp::RunContext experiment_context(const icp::Experiment& e, const std::vector<n
   return run;
 }
 
+// Each adapter at its best bucket from the file the experiment (or --buckets-from) names, said on stdout.
+void choose_buckets(icp::Experiment& e, const ExperimentFlags& flags) {
+  if (flags.buckets_from) e.buckets_from = *flags.buckets_from == "none" ? "" : *flags.buckets_from;
+  if (e.buckets_from.empty()) return;
+  e.best_buckets = icp::best_buckets(e.buckets_from);
+  std::cout << "best buckets from " << e.buckets_from << ":";
+  for (const auto& [adapter, bucket] : e.best_buckets) std::cout << " " << adapter << "=" << bucket;
+  std::cout << " (other adapters at their default)\n";
+}
+
 int run_experiment(const ExperimentFlags& flags, const ds::DataOptions& data) {
-  const icp::Experiment e = icp::load_experiment(experiment_path(flags.name));
+  icp::Experiment e = icp::load_experiment(experiment_path(flags.name));
+  choose_buckets(e, flags);
   const ShardSpec shard = flags.shard.empty() ? ShardSpec{} : nnb::sweep::parse_shard(flags.shard);
   const auto adapters = adapters_of(e);
   std::vector<std::string> refused;
@@ -427,6 +444,9 @@ int main(int argc, char** argv) {
     app.add_flag("--plan", experiment.plan,
                  "with --experiment: print the runs, units and shards with their expected cost; run nothing");
     app.add_flag("--json", experiment.plan_json, "with --plan: print the plan as JSON");
+    app.add_option("--buckets-from", experiment.buckets_from,
+                   "with --experiment: run each adapter at its fastest bucket in this ICP results file (a bucket "
+                   "sweep, Figure 2); 'none': every adapter at its default");
     app.add_option("--adapter", adapter, "nearest-neighbour adapter (see nns_query --list)");
     app.add_option("--param", param_words, "adapter parameter NAME=VALUE (repeatable)");
     app.add_option("--model", model_spec, "model cloud: shape name, real pair name or file");

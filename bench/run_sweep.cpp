@@ -31,6 +31,7 @@ struct Flags {
   std::string adapters, datasets, dists, out, data_dir, strategies;
   std::optional<int> repetitions;
   std::optional<double> budget_s;
+  std::optional<double> min_time_s;
   std::optional<std::size_t> points;
   std::optional<double> memory_limit_gib;
   std::optional<double> cell_timeout_s;
@@ -51,6 +52,7 @@ Experiment configure(const Flags& flags, const std::vector<std::string>& all_ada
   if (!flags.strategies.empty()) e.every_strategy = parse_strategies(flags.strategies);
   if (flags.repetitions) e.repetitions = *flags.repetitions;
   if (flags.budget_s) e.budget_s = *flags.budget_s;
+  if (flags.min_time_s) e.min_time_s = *flags.min_time_s;
   if (flags.points) e.synthetic_points = *flags.points;
   if (flags.memory_limit_gib) e.memory_limit_gib = *flags.memory_limit_gib;
   if (flags.cell_timeout_s) e.cell_timeout_s = *flags.cell_timeout_s;
@@ -88,7 +90,9 @@ int main(int argc, char** argv) {
   app.add_option("--dists", flags.dists, "swept maximal distances, start:stop:step in metres");
   app.add_option("--strategies", flags.strategies,
                  "ranged search with each adapter's default strategy ('default') or every one it offers ('all')");
-  app.add_option("--repetitions", flags.repetitions, "timed calls per cell");
+  app.add_option("--repetitions", flags.repetitions, "timed calls per cell at most (each is a record)");
+  app.add_option("--min-time", flags.min_time_s,
+                 "repeat a cell until its calls took this many seconds in total, up to --repetitions (0: always all)");
   app.add_option("--budget", flags.budget_s, "seconds per call above which larger distances are skipped");
   app.add_option("--points", flags.points, "points per synthetic data set (the paper: 60000)");
   app.add_option("--memory-limit-gib", flags.memory_limit_gib,

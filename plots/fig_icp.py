@@ -61,7 +61,7 @@ def fig2(results, out_dir):
 
 
 def real_times(results):
-    """{pair: {(adapter, search): (median icp seconds, all converged or None)}}."""
+    """{pair: {(adapter, search): (median icp seconds, all converged or None, bucket size or None)}}."""
     runs = {}
     for run in results.icp:
         if not is_bucket_run(run):
@@ -71,7 +71,9 @@ def real_times(results):
         out[pair] = {}
         for key, rs in by_key.items():
             flags = [r.converged for r in rs if r.converged is not None]
-            out[pair][key] = (median(r.icp_seconds for r in rs), all(flags) if flags else None)
+            buckets = {r.bucket_size for r in rs}
+            out[pair][key] = (median(r.icp_seconds for r in rs), all(flags) if flags else None,
+                              buckets.pop() if len(buckets) == 1 else None)
     return out
 
 
@@ -82,7 +84,7 @@ def ranked_pair(results, times):
 
 
 def nanoflann_seconds(times):
-    return min((t for (a, _), (t, _) in times.items() if a == REFERENCE), default=None)
+    return min((t for (a, _), (t, _, _) in times.items() if a == REFERENCE), default=None)
 
 
 def bar_text(seconds, converged, reference):
@@ -92,20 +94,26 @@ def bar_text(seconds, converged, reference):
     return text + (" (not converged)" if converged is False else "")
 
 
+def bucket_text(bucket_size):
+    """The bucket size a bar ran at: the reader sees whether each library ran at its best (see run_icp
+    --buckets-from) or its default."""
+    return f" (bucket {bucket_size:g})" if bucket_size is not None else ""
+
+
 def draw_pair(ax, results, pair, times):
     best, approximate = ranked_pair(results, times[pair])
     shown = best[:BEST_COUNT] + approximate
     ys = np.arange(len(shown))[::-1]
     reference = nanoflann_seconds(times[pair])
     for y, key in zip(ys, shown):
-        seconds, converged = times[pair][key]
+        seconds, converged, _ = times[pair][key]
         colour = style.adapter_colour(key[0], results)
         hollow = style.is_approximate(key[0], results)
         ax.barh(y, seconds, color="white" if hollow else colour, edgecolor=colour if hollow else "white",
                 hatch="//" if converged is False else None)
         ax.text(seconds, y, bar_text(seconds, converged, reference), va="center", fontsize=9)
-    ax.set_yticks(ys, [style.short_label(a, results) + ("" if key in best else ", not ranked")
-                       for key in shown for a in [key[0]]])
+    ax.set_yticks(ys, [style.short_label(key[0], results) + bucket_text(times[pair][key][2])
+                       + ("" if key in best else ", not ranked") for key in shown])
     ax.set_xlim(0, 2.35 * max(times[pair][k][0] for k in shown))
     ax.set_xlabel("ICP time (s), construction excluded")
     ax.set_title(f"{pair}: the {min(BEST_COUNT, len(best))} fastest exact adapters")

@@ -52,7 +52,24 @@ def unit_key(doc, unit_or_record):
 def cell_name(doc, rec):
     if program(doc) == "run_icp":
         return f"{rec['name']}#{rec.get('repetition_index', 0)}"
-    return rec["name"]
+    return rec.get("run_name") or rec["name"]  # a cell's repetitions and aggregates share its run_name
+
+
+def record_key(rec):
+    """What makes a record one of a kind within its cell: its repetition or its aggregate."""
+    return rec.get("run_type"), rec.get("repetition_index"), rec.get("aggregate_name")
+
+
+def cell_groups(doc):
+    """The document's records grouped by cell name, in order of first appearance, and the names of cells
+    with a record given twice."""
+    groups, repeated = {}, []
+    for rec in doc["benchmarks"]:
+        group = groups.setdefault(cell_name(doc, rec), [])
+        if any(record_key(r) == record_key(rec) for r in group):
+            repeated.append(cell_name(doc, rec))
+        group.append(rec)
+    return groups, repeated
 
 
 def config_without_shard(doc):
@@ -106,7 +123,7 @@ def missing_shards(docs):
 
 
 def collect_cells(docs, paths):
-    """The records by cell name; missing and duplicated cell names, and the run-order key of each name."""
+    """Each cell's records by cell name; missing and duplicated cell names, and the run-order key of each name."""
     records, origin, duplicated, missing, order = {}, {}, [], [], {}
     units = docs[0]["context"]["shard"]["units"]
     unit_index = {unit_key(docs[0], u): i for i, u in enumerate(units)}
@@ -114,15 +131,17 @@ def collect_cells(docs, paths):
         expected = doc["context"]["shard"]["cells"]
         position = {name: i for i, name in enumerate(expected)}
         names = set()
-        for rec in doc["benchmarks"]:
-            name = cell_name(doc, rec)
+        groups, repeated = cell_groups(doc)
+        duplicated += [f"{name} (twice in {path})" for name in repeated]
+        for name, group in groups.items():
+            rec = group[0]
             if name in records:
                 duplicated.append(f"{name} (in {origin[name]} and {path})")
                 continue
             if name not in position:
                 duplicated.append(f"{name} (in {path}, which is not its shard)")
                 continue
-            records[name], origin[name] = rec, path
+            records[name], origin[name] = group, path
             names.add(name)
             order[name] = (unit_index.get(unit_key(doc, rec), len(units)), position[name])
         missing += [f"{name} (shard {shard_index(doc)}, {path})" for name in expected if name not in names]
@@ -130,7 +149,7 @@ def collect_cells(docs, paths):
 
 
 def agreement_key(rec):
-    last = rec["name"].rsplit("/", 1)[-1]
+    last = (rec.get("run_name") or rec["name"]).rsplit("/", 1)[-1]
     k = str(rec["k"]) if "k" in rec else "-"
     return "|".join([rec["model"], rec["query"], rec["search"], k, last if "max_dist" in rec else "-"])
 
@@ -188,7 +207,7 @@ def write_atomically(path, text):
 
 
 def results_text(context, records):
-    body = ",\n".join(json.dumps(r, indent=2) for r in records)
+    body = ",\n".join(json.dumps(r) for r in records)  # a record a line, as run_sweep writes them
     return "{\n\"context\": " + json.dumps(context, indent=2) + ",\n\"benchmarks\": [\n" + body + "\n]\n}\n"
 
 
@@ -217,7 +236,7 @@ def merge(paths, out, allow_missing):
         print(f"{PROG}: nothing written (rerun the missing shards with --resume"
               f"{'' if duplicated else ', or merge with --allow-missing'})", file=sys.stderr)
         return 1
-    merged = [records[name] for name in sorted(records, key=order.get)]
+    merged = [rec for name in sorted(records, key=order.get) for rec in records[name]]
     disagreements = redo_agreement(merged)
     write_atomically(out, results_text(merged_context(docs, paths), merged))
     print(f"{PROG}: wrote {len(merged)} records from {len(docs)} shards to {out}"

@@ -102,7 +102,8 @@ def icp_figure(results):
         traces.append(dict(type="bar", x=[p for p, _ in keys], y=[times[p][k][0] for p, k in keys],
                            name=style.short_label(adapter, results),
                            marker=dict(color=style.adapter_colour(adapter, results)),
-                           hovertext=["not converged" if times[p][k][1] is False else "converged" for p, k in keys]))
+                           hovertext=[("not converged" if times[p][k][1] is False else "converged")
+                                      + fig_icp.bucket_text(times[p][k][2]) for p, k in keys]))
     fig = figure(traces, "ICP time on the real pairs (search + estimation)", "pair", "ICP time (s)")
     fig["layout"]["barmode"] = "group"
     return fig
@@ -206,7 +207,7 @@ def adapter_html(results, name):
     info = results.adapter_info(name)
     fields = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(str(v))}</td></tr>" for k, v in sorted(info.items()))
     builds = sorted((b.model, b.build_seconds) for b in results_io.latest_builds(results).values() if b.adapter == name)
-    icp = {pair: t for pair, by in fig_icp.real_times(results).items() for (a, _), (t, _) in by.items() if a == name}
+    icp = {pair: t for pair, by in fig_icp.real_times(results).items() for (a, _), (t, *_) in by.items() if a == name}
     text = "".join(f"<li>build on {html.escape(m)}: {s:.4g} s</li>" for m, s in builds)
     text += "".join(f"<li>ICP on {html.escape(p)}: {t:.3g} s</li>" for p, t in sorted(icp.items()))
     return (f"<section id='adapter-{html.escape(name)}'><h3>{html.escape(name)}"

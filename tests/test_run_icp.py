@@ -5,6 +5,7 @@ cli (the default): the results file has Google Benchmark's layout, the same mach
 run_sweep's (one writer for both), records with the fields plots/ reads; bad input exits 2 and writes nothing.
 shards: an experiment run whole and as 3 shards, merged by plots/merge_results.py, gives the single run's
 records; --plan prints the split and runs nothing; a shard resumes its own file only; bad --shard exits 2.
+buckets: --buckets-from runs each adapter at its fastest bucket of a bucket sweep.
 """
 import json
 import os
@@ -277,7 +278,48 @@ def case_shards():
         fail("the default shard file is missing")
 
 
+def case_buckets():
+    """--buckets-from runs each adapter at its fastest bucket in a bucket sweep, failed runs left out; 'none',
+    its default; a missing file exits 2 with one line."""
+    work = WORK / "buckets"
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    sweep = {"name": "tiny_bucket", "pairs": ["hollow_sphere"], "adapters": ["nanoflann_kdtree", "ours_kdtree"],
+             "bucket_sizes": [4, 16], "icp": {"max_dist_m": 0.5, "iterations": 5}, "repetitions": 1}
+    (work / "tiny_bucket.json").write_text(json.dumps(sweep))
+    ran(["--experiment", str(work / "tiny_bucket.json"), "--points", "500", "--out", str(work / "bucket.json")])
+    doc = load(work / "bucket.json")
+    # Times set so that the answer is known: nanoflann fastest at 16; ours at 16 faster still but failed.
+    wanted_seconds = {("nanoflann_kdtree", 4): 2.0, ("nanoflann_kdtree", 16): 1.0, ("ours_kdtree", 4): 1.5,
+                      ("ours_kdtree", 16): 0.1}
+    for rec in doc["benchmarks"]:
+        rec["icp_seconds"] = wanted_seconds[(rec["adapter"], rec["bucket_size"])]
+        if (rec["adapter"], rec["bucket_size"]) == ("ours_kdtree", 16):
+            rec["failure"] = "diverged"
+    (work / "bucket.json").write_text(json.dumps(doc))
+    real = dict(sweep, name="tiny_real", adapters=["brute_force", "nanoflann_kdtree", "ours_kdtree"], bucket_sizes=None)
+    (work / "tiny_real.json").write_text(json.dumps(real))
+    experiment = ["--experiment", str(work / "tiny_real.json"), "--points", "500"]
+    proc = ran(experiment + ["--buckets-from", str(work / "bucket.json"), "--out", str(work / "best.json")])
+    best = load(work / "best.json")
+    used = {r["adapter"]: r.get("bucket_size") for r in best["benchmarks"]}
+    if used != {"brute_force": None, "nanoflann_kdtree": 16, "ours_kdtree": 4}:
+        fail(f"--buckets-from: buckets used {used}")
+    if best["context"]["config"].get("best_buckets") != {"nanoflann_kdtree": 16, "ours_kdtree": 4}:
+        fail(f"config.best_buckets: {best['context']['config'].get('best_buckets')}")
+    if "nanoflann_kdtree=16" not in proc.stdout:
+        fail(f"the chosen buckets are not said: {proc.stdout}")
+    ran(experiment + ["--buckets-from", "none", "--out", str(work / "default.json")])
+    defaults = {r["adapter"]: r.get("bucket_size") for r in load(work / "default.json")["benchmarks"]}
+    if defaults["ours_kdtree"] == 4 or "best_buckets" in load(work / "default.json")["context"]["config"]:
+        fail(f"--buckets-from none: {defaults}")
+    proc = ran(experiment + ["--buckets-from", str(work / "absent.json"), "--out", str(work / "x.json")], expect=2)
+    lines = [line for line in proc.stderr.splitlines() if line.strip() and "WARNING" not in line and "warning" not in line]
+    if len(lines) != 1 or "absent.json" not in lines[0] or (work / "x.json").exists():
+        fail(f"--buckets-from a missing file: {proc.stderr}")
+
+
 if __name__ == "__main__":
     WORK.mkdir(parents=True, exist_ok=True)
-    {"cli": case_cli, "shards": case_shards}[CASE]()
+    {"cli": case_cli, "shards": case_shards, "buckets": case_buckets}[CASE]()
     print(f"run_icp: ok [{CASE}]")

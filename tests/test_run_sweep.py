@@ -10,6 +10,7 @@ import math
 import os
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -17,13 +18,15 @@ from pathlib import Path
 RUN_SWEEP, CASE, WORK = sys.argv[1], sys.argv[2], Path(sys.argv[3]) / sys.argv[2]
 TINY = ["--points", "300", "--dists", "0:0.3:0.1", "--repetitions", "2"]
 
-# Every record has these; sweep and build records add their own (see results/README.md).
+# Every cell's record (its median aggregate, or the one record of a skipped cell) has these; sweep and build
+# records add their own, and timed cells their times (see results/README.md).
 COMMON = {"name": str, "run_name": str, "run_type": str, "repetitions": int, "iterations": int, "threads": int,
-          "real_time": (int, float), "cpu_time": (int, float), "time_unit": str, "type": str, "model": str,
-          "adapter": str, "exact": bool, "median_s": (int, float), "mean_s": (int, float), "min_s": (int, float),
-          "stddev_s": (int, float), "cpu_median_s": (int, float)}
+          "type": str, "model": str, "adapter": str, "exact": bool}
+TIMES = {"real_time": (int, float), "cpu_time": (int, float), "time_unit": str, "median_s": (int, float),
+         "mean_s": (int, float), "min_s": (int, float), "stddev_s": (int, float), "cpu_median_s": (int, float)}
+BUILD_TIMES = {"build_seconds": (int, float)}
 SWEEP = {"query": str, "search": str, "strategy": str, "found": int, "neighbours": int, "dist_sum": (int, float)}
-BUILD = {"build_seconds": (int, float), "index_bytes": int, "n_points": int}
+BUILD = {"index_bytes": int, "n_points": int}
 CONTEXT = ["date", "host_name", "num_cpus", "mhz_per_cpu", "caches", "library_build_type", "compiler", "flags",
            "build_type", "git_commit", "git_dirty", "command_line", "wall_seconds", "load_avg", "load_avg_after",
            "experiment", "config", "adapters", "datasets"]
@@ -47,22 +50,81 @@ def run(args, env=None, expect=0):
     return proc
 
 
-def load(path):
+def load_raw(path):
     return json.loads(Path(path).read_text())
+
+
+def cell_groups(records):
+    groups = {}
+    for rec in records:
+        groups.setdefault(rec.get("run_name") or rec["name"], []).append(rec)
+    return groups
+
+
+def cells_of(records):
+    """One record per cell, named by its cell: the median aggregate, or the one record of a skipped cell."""
+    cells = []
+    for name, recs in cell_groups(records).items():
+        median = next((r for r in recs if r.get("aggregate_name") == "median"), None)
+        if median is None:
+            check(len(recs) == 1 and recs[0].get("error_occurred"), f"{name}: timed, but no median aggregate")
+            cells.append(recs[0])
+        else:
+            cells.append(dict(median, name=name))
+    return cells
+
+
+def load(path):
+    """The file with 'benchmarks' as one record per cell and 'records' as written."""
+    doc = load_raw(path)
+    doc["records"] = doc["benchmarks"]
+    doc["benchmarks"] = cells_of(doc["records"])
+    return doc
+
+
+def check_repetition_records(records):
+    """Google Benchmark's layout: a record per timed repetition, then mean, median (and with two or more,
+    stddev and cv) aggregates of them; a skipped cell is one error record without times."""
+    for name, recs in cell_groups(records).items():
+        runs = [r for r in recs if r["run_type"] == "iteration"]
+        aggregates = {r["aggregate_name"]: r for r in recs if r["run_type"] == "aggregate"}
+        if recs[0].get("error_occurred"):
+            check(len(recs) == 1 and "real_time" not in recs[0], f"{name}: a skipped cell has times or aggregates")
+            continue
+        n = len(runs)
+        check(n >= 1 and all(r["repetitions"] == n for r in recs), f"{name}: {n} repetition records")
+        check([r["repetition_index"] for r in runs] == list(range(n)), f"{name}: repetition indices")
+        check(all(r["name"] == name and r["iterations"] == 1 and r["time_unit"] == "us" for r in runs),
+              f"{name}: repetition record fields")
+        wanted = {"mean", "median"} | ({"stddev", "cv"} if n >= 2 else set())
+        check(set(aggregates) == wanted, f"{name}: aggregates {sorted(aggregates)}, expected {sorted(wanted)}")
+        check(all(a["name"] == f"{name}_{k}" for k, a in aggregates.items()), f"{name}: aggregate names")
+        times = [r["real_time"] for r in runs]
+        check(math.isclose(aggregates["median"]["real_time"], statistics.median(times), rel_tol=1e-9),
+              f"{name}: the median aggregate is not the repetitions' median")
+        check(math.isclose(aggregates["mean"]["real_time"], statistics.fmean(times), rel_tol=1e-9),
+              f"{name}: the mean aggregate is not the repetitions' mean")
+        if n >= 2:
+            check(math.isclose(aggregates["stddev"]["real_time"], statistics.stdev(times), rel_tol=1e-6, abs_tol=1e-12),
+                  f"{name}: stddev")
+            check(aggregates["cv"]["aggregate_unit"] == "percentage", f"{name}: cv unit")
 
 
 def check_record_fields(rec):
     name = rec.get("name", "?")
-    expected = dict(COMMON, **(SWEEP if rec.get("type") == "sweep" else BUILD))
+    expected = dict(COMMON, **(SWEEP if rec.get("type") == "sweep" else BUILD), **({} if "skipped" in rec else TIMES),
+                    **({} if "skipped" in rec or rec.get("type") == "sweep" else BUILD_TIMES))
     for field, kind in expected.items():
         check(field in rec, f"{name}: field '{field}' missing")
         check(isinstance(rec[field], kind) and not (kind is int and isinstance(rec[field], bool)),
               f"{name}: field '{field}' = {rec[field]!r} has the wrong type")
-    check(rec["time_unit"] == "ms" and rec["run_type"] == "iteration", f"{name}: time_unit/run_type")
-    check(math.isclose(rec["real_time"], 1e3 * rec["median_s"], rel_tol=1e-12, abs_tol=1e-15), f"{name}: real_time is not the median in ms")
     if "skipped" in rec:
         check(rec.get("error_occurred") is True and rec["skipped"], f"{name}: skipped without a reason")
+        check(rec["run_type"] == "iteration" and "real_time" not in rec, f"{name}: a skipped cell has a time")
     else:
+        check(rec["time_unit"] == "us" and rec["run_type"] == "aggregate", f"{name}: time_unit/run_type")
+        check(math.isclose(rec["real_time"], 1e6 * rec["median_s"], rel_tol=1e-12, abs_tol=1e-15),
+              f"{name}: real_time is not the median in us")
         check(rec["repetitions"] >= 1, f"{name}: ran with 0 repetitions")
         check(rec["min_s"] <= rec["median_s"] <= max(rec["mean_s"], rec["median_s"]) or rec["repetitions"] > 2,
               f"{name}: odd statistics")
@@ -105,6 +167,7 @@ def case_fields():
     check(len(names) == 10, f"expected 10 records, got {len(names)}: {names}")
     for rec in doc["benchmarks"]:
         check_record_fields(rec)
+    check_repetition_records(doc["records"])
     check("sweep/hollow_sphere/hollow_cube/brute_force/ranged/max_dist:0.20" in names, "ranged cell name")
     check("sweep/hollow_sphere/hollow_cube/brute_force/knn/k:1" in names, "knn cell name")
     by_name = {r["name"]: r for r in doc["benchmarks"]}
@@ -113,6 +176,48 @@ def case_fields():
              for d in ("0.00", "0.10", "0.20", "0.30")]
     check(found[0] == 0 and found == sorted(found) and found[-1] > 0, f"ranged found not growing: {found}")
     check(by_name["sweep/hollow_sphere/hollow_cube/brute_force/knn/k:1"]["found"] == 300, "knn found != 300")
+
+
+def case_min_time():
+    """--min-time repeats a cell until its calls took that long, up to --repetitions: each repetition a record."""
+    work = fresh_workdir()
+    base = ["--points", "300", "--dists", "0:0.3:0.1", "--adapters", "brute_force", "--strategies", "default"]
+    for min_time, reps, expected in (("1000", "6", 6), ("1e-9", "6", 1), ("0", "4", 4)):
+        out = work / f"min_time_{min_time}.json"
+        run(base + ["--repetitions", reps, "--min-time", min_time, "--out", str(out)])
+        doc = load(out)
+        check(doc["context"]["config"]["min_time_seconds"] == float(min_time), "config.min_time_seconds")
+        check_repetition_records(doc["records"])
+        counts = {r["repetitions"] for r in doc["benchmarks"] if r["type"] == "sweep"}
+        check(counts == {expected}, f"--min-time {min_time} --repetitions {reps}: repetitions {counts}")
+    proc = run(base + ["--min-time", "-1", "--out", str(work / "bad.json")], expect=2)
+    check("min_time_seconds" in proc.stderr, f"--min-time -1: {proc.stderr}")
+
+
+COMPARE_PY = Path("/usr/share/benchmark/compare.py")  # Debian's libbenchmark-tools
+
+
+def case_compare_py():
+    """Google Benchmark's compare.py reads two run_sweep files: readable ratios, and its U-test runs."""
+    check(COMPARE_PY.exists(), f"{COMPARE_PY} missing: scripts/install_deps.sh installs libbenchmark-tools")
+    work = fresh_workdir()
+    args = ["--points", "2000", "--dists", "0.1:0.2:0.1", "--adapters", "brute_force", "--strategies", "default",
+            "--repetitions", "9", "--min-time", "0"]
+    a, b = work / "a.json", work / "b.json"
+    run(args + ["--out", str(a)])
+    run(args + ["--out", str(b)])
+    proc = subprocess.run(["/usr/bin/python3", str(COMPARE_PY), "--no-color", "benchmarks", str(a), str(b)],
+                          capture_output=True, text=True, timeout=300)
+    check(proc.returncode == 0, f"compare.py exited {proc.returncode}: {proc.stderr[-2000:]}")
+    cell = "sweep/hollow_sphere/hollow_cube/brute_force/ranged/max_dist:0.10"
+    rows = [line.split() for line in proc.stdout.splitlines() if line.startswith(cell)]
+    check(rows, f"compare.py printed no row for {cell}:\n{proc.stdout[:3000]}")
+    old_times = [float(row[3]) for row in rows if len(row) >= 7 and row[0] == cell]
+    check(old_times and all(t > 0 for t in old_times), f"compare.py rows for {cell}: {rows}")
+    pvalue = [row for row in rows if row[0] == f"{cell}_pvalue"]
+    check(pvalue and "U" in " ".join(pvalue[0]) and "9 vs 9" in " ".join(pvalue[0]),
+          f"no U-test over 9 repetitions for {cell}: {rows}")
+    check(any(row[0] == f"{cell}_median" for row in rows), f"no median aggregate row: {rows}")
 
 
 def case_strategies():
@@ -157,6 +262,8 @@ def case_resume():
     proc = run(args + ["--out", str(killed)], env={"NNB_SWEEP_ABORT_AFTER_CELLS": "7"}, expect=None)
     check(proc.returncode == -9, f"the fault-injected run was not killed (exit {proc.returncode})")
     partial = load(killed)
+    killed_copy = work / "killed_copy.json"
+    shutil.copy(killed, killed_copy)
     n_partial = len(partial["benchmarks"])
     n_whole = len(load(whole)["benchmarks"])
     check(7 <= n_partial < n_whole, f"killed run recorded {n_partial} of {n_whole} cells")
@@ -182,7 +289,7 @@ def case_resume():
     for name, rec in kept.items():
         if rec["type"] == "sweep":
             check(rec["found"] == whole_by_name[name]["found"], f"{name}: found differs between runs")
-    check_hostile_resume(args, partial, work)
+    check_hostile_resume(args, load_raw(killed_copy), work)
 
 
 def check_hostile_resume(args, partial, work):
@@ -190,7 +297,7 @@ def check_hostile_resume(args, partial, work):
     def nested(depth):
         return [nested(depth - 1)] if depth else []
     count = json.loads(json.dumps(partial))
-    next(r for r in count["benchmarks"] if r["type"] == "sweep")["neighbours"] = 4.9e23
+    next(r for r in count["benchmarks"] if "neighbours" in r)["neighbours"] = 4.9e23
     deep = json.loads(json.dumps(partial))
     deep["context"]["note"] = nested(200)
     resumed = json.loads(json.dumps(partial))
@@ -480,13 +587,16 @@ def case_files():
     check(not stale.exists(), "a stale temporary was left")
     check(not Path(str(out) + ".lock").exists(), "the lock file was left")
     # a non-finite number is written as a marker that --resume reads back
-    doc = load(out)
-    sweep = [r for r in doc["benchmarks"] if r["type"] == "sweep"]
-    doc["benchmarks"] = [r for r in doc["benchmarks"] if r is not sweep[-1]]
-    doc["benchmarks"][-1]["dist_sum"] = "inf"
+    doc = load_raw(out)
+    last_cell = [r for r in doc["benchmarks"] if r["type"] == "sweep"][-1]["run_name"]
+    doc["benchmarks"] = [r for r in doc["benchmarks"] if r["run_name"] != last_cell]
+    marked = [r for r in doc["benchmarks"] if "dist_sum" in r][-1]
+    marked["dist_sum"] = "inf"
     out.write_text(json.dumps(doc))
     run(args + ["--out", str(out), "--resume"])
-    check(load(out)["benchmarks"][len(doc["benchmarks"]) - 1]["dist_sum"] == "inf", "marker not kept on resume")
+    cells = {r["name"]: r for r in load(out)["benchmarks"]}
+    check(cells[marked["run_name"]]["dist_sum"] == "inf", "marker not kept on resume")
+    check(last_cell in cells, "the removed cell was not run again")
     # SIGTERM: the checkpoint is finished, one line names the resume command, --resume completes the cells
     import signal
     import time
@@ -600,8 +710,9 @@ def case_shards():
     proc = merge(shards[:2], work / "partial.json", 1)
     check("shard 2/3 missing" in proc.stderr and not (work / "partial.json").exists(), proc.stderr)
     # a missing cell is reported by name
-    cut = load(shards[1])
-    lost = cut["benchmarks"].pop()["name"]
+    cut = load_raw(shards[1])
+    lost = cut["benchmarks"][-1]["run_name"]
+    cut["benchmarks"] = [r for r in cut["benchmarks"] if r["run_name"] != lost]
     (work / "cut.json").write_text(json.dumps(cut))
     proc = merge([shards[0], work / "cut.json", shards[2]], work / "partial.json", 1)
     check(lost in proc.stderr, f"the missing cell is not named: {proc.stderr}")
@@ -624,7 +735,8 @@ def case_shards():
           f"default shard file: {proc.stderr[-1000:]}")
 
 
-CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "strategies": case_strategies, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
+CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "min_time": case_min_time,
+         "compare_py": case_compare_py, "strategies": case_strategies, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
          "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
          "scale_budget": case_scale_budget, "shards": case_shards}
 

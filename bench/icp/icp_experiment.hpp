@@ -31,10 +31,18 @@ struct Experiment {
   std::map<std::string, Settings> icp_by_pair;  ///< ... unless overridden here
   int repetitions = 1;
   std::string out;                          ///< default output path
+  /// An ICP results file with a bucket sweep (Figure 2): each adapter runs at its fastest bucket there,
+  /// as the paper ran each library at its optimum. Empty: each adapter's default.
+  std::string buckets_from;
+  std::map<std::string, int> best_buckets;  ///< read from buckets_from, by adapter
 };
 
 /// Reads an experiment file; InputError (one line, naming the file) for a missing or malformed one.
 Experiment load_experiment(const std::string& path);
+/// Each adapter's bucket size with the lowest median ICP time (search and estimation) over the runs of an
+/// ICP results file that neither failed nor were skipped; ties go to the smaller size. InputError (one line)
+/// when the file cannot be read, is not an ICP results file or holds no such run.
+std::map<std::string, int> best_buckets(const std::string& path);
 /// The settings for that pair.
 const Settings& settings_for(const Experiment& experiment, const std::string& pair);
 

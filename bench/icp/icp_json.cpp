@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -247,6 +248,10 @@ std::string config_json(const Experiment& e, const std::vector<AdapterVersion>& 
   c["adapters"] = ordered_json::array();
   for (const auto& a : adapters) c["adapters"].push_back({{"name", a.name}, {"version", a.version}});
   c["bucket_sizes"] = e.bucket_sizes;
+  if (!e.buckets_from.empty()) {
+    c["buckets_from"] = e.buckets_from;
+    c["best_buckets"] = e.best_buckets;
+  }
   c["params"] = e.params;
   c["repetitions"] = e.repetitions;
   c["synthetic_points"] = synthetic_points;
@@ -333,12 +338,55 @@ Experiment load_experiment(const std::string& path) {
     e.repetitions = j.contains("repetitions") ? bench::whole_number<int>(j["repetitions"], "repetitions") : 1;
     if (e.repetitions < 1) throw InputError("repetitions must be at least 1");
     e.out = j.value("out", "results/" + e.name + ".json");
+    if (const auto it = j.find("buckets_from"); it != j.end() && !it->is_null()) e.buckets_from = it->get<std::string>();
   } catch (const json::exception& err) {
     throw InputError(path + ": " + err.what());
   } catch (const InputError& err) {
     throw InputError(path + ": " + err.what());
   }
   return e;
+}
+
+namespace {
+
+double median_of(std::vector<double> xs) {
+  std::sort(xs.begin(), xs.end());
+  const std::size_t n = xs.size();
+  return n % 2 ? xs[n / 2] : 0.5 * (xs[n / 2 - 1] + xs[n / 2]);
+}
+
+// A run that counts towards its bucket: timed, neither failed nor skipped.
+bool counts(const json& rec) {
+  return rec.is_object() && rec.contains("adapter") && rec.contains("bucket_size") && rec.contains("icp_seconds") &&
+         rec["bucket_size"].is_number_integer() && rec["icp_seconds"].is_number() &&
+         rec.value("failure", std::string()).empty() && !rec.contains("skipped") && !rec.contains("error_occurred");
+}
+
+}  // namespace
+
+std::map<std::string, int> best_buckets(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError("buckets_from: cannot read " + path + " (run run_icp --experiment icp_bucket first)");
+  std::map<std::string, std::map<int, std::vector<double>>> seconds;  // adapter -> bucket -> ICP times
+  try {
+    const json doc = json::parse(in);
+    for (const auto& rec : doc.at("benchmarks")) {
+      if (!counts(rec)) continue;
+      seconds[rec["adapter"].get<std::string>()][rec["bucket_size"].get<int>()].push_back(rec["icp_seconds"].get<double>());
+    }
+  } catch (const json::exception& err) {
+    throw InputError("buckets_from: " + path + " is not an ICP results file (" + err.what() + ")");
+  }
+  std::map<std::string, int> best;
+  for (const auto& [adapter, by_bucket] : seconds) {
+    double fastest = 0.0;
+    for (const auto& [bucket, times] : by_bucket) {  // ascending sizes: a tie keeps the smaller
+      const double t = median_of(times);
+      if (!best.count(adapter) || t < fastest) best[adapter] = bucket, fastest = t;
+    }
+  }
+  if (best.empty()) throw InputError("buckets_from: " + path + " holds no timed ICP run with a bucket size");
+  return best;
 }
 
 const Settings& settings_for(const Experiment& experiment, const std::string& pair) {

@@ -41,10 +41,10 @@ struct Experiment {
   bool every_strategy = false;  ///< ranged search with every strategy an adapter offers, not only its default
   std::vector<int> ks{1};
   DistRange dists;
-  int repetitions = 3;
+  int repetitions = 3;  ///< timed calls per cell at most; each is its own record
   int build_repetitions = 3;
   double budget_s = 2.0;                      ///< per cell, per repetition
-  double cell_s = 0.0;  ///< stop repeating a cell once its calls took this long in total (0: no limit)
+  double min_time_s = 0.0;  ///< repeat a cell until its calls took this long in total (0: every repetition)
   std::size_t neighbour_budget = 20'000'000;  ///< per cell: more neighbours than this stops larger distances
   std::size_t synthetic_points = 60000;
   std::uint64_t seed = 1;

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace nnb::sweep {
 
@@ -29,8 +30,10 @@ struct Record {
   std::optional<int> k;              ///< absent for radius
   std::string skipped;  ///< why the cell did not run; empty when it ran
   int repetitions = 0;  ///< repetitions actually timed
-  TimeStats wall;       ///< per call answering all queries (sweep) or per build
-  TimeStats cpu;        ///< process CPU time, same calls
+  std::vector<double> wall_each_s;  ///< each repetition's wall time, in the order timed
+  std::vector<double> cpu_each_s;   ///< each repetition's process CPU time
+  TimeStats wall;       ///< of wall_each_s: per call answering all queries (sweep) or per build
+  TimeStats cpu;        ///< of cpu_each_s
   std::size_t found = 0;       ///< queries with at least one neighbour
   std::size_t neighbours = 0;  ///< neighbours found over all queries
   double dist_sum_m = 0.0;     ///< sum of the distances of all neighbours found, metres

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <csignal>
 #include <limits>
+#include <map>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -56,7 +57,7 @@ ordered_json config_of(const RunDescription& run) {
   c["repetitions"] = e.repetitions;
   c["build_repetitions"] = e.build_repetitions;
   c["budget_seconds"] = e.budget_s;
-  c["max_cell_seconds"] = e.cell_s;
+  c["min_time_seconds"] = e.min_time_s;
   c["neighbour_budget"] = e.neighbour_budget;
   c["synthetic_points"] = e.synthetic_points;
   c["seed"] = e.seed;
@@ -128,49 +129,40 @@ void put_stats(ordered_json& j, const char* prefix, const TimeStats& s) {
   j[p + "stddev_s"] = number_or_marker(s.stddev_s);
 }
 
-ordered_json to_json(const Record& r) {
-  ordered_json j;
-  j["name"] = r.name;
-  j["run_name"] = r.name;
-  j["run_type"] = "iteration";
-  j["repetitions"] = r.repetitions;
-  j["repetition_index"] = 0;
-  j["threads"] = 1;
-  j["iterations"] = r.repetitions;
-  // Milliseconds, so that Google Benchmark's compare.py prints readable values (it rounds to whole units).
-  j["real_time"] = number_or_marker(1e3 * r.wall.median_s);
-  j["cpu_time"] = number_or_marker(1e3 * r.cpu.median_s);
-  j["time_unit"] = "ms";
+// What names the cell, on each of its records, so that every record reads alone (compare.py, to_csv.py).
+void put_identity(ordered_json& j, const Record& r) {
   j["type"] = r.type == Record::Type::build ? "build" : "sweep";
   j["model"] = r.model;
   if (r.type == Record::Type::sweep) j["query"] = r.query;
   j["adapter"] = r.adapter;
   j["exact"] = r.exact;
-  if (!r.skipped.empty()) {
-    j["skipped"] = r.skipped;
-    j["error_occurred"] = true;  // Google Benchmark's way to say a record has no timing
-    j["error_message"] = r.skipped;
+  if (r.type == Record::Type::build) return;
+  j["search"] = r.search;
+  j["strategy"] = r.strategy;
+  if (r.max_dist_m) j["max_dist"] = *r.max_dist_m;
+  if (r.k) j["k"] = *r.k;
+}
+
+// What the cell found and cost: carried once, by the median aggregate (or by the record of a skipped cell).
+void put_cell(ordered_json& j, const Record& r) {
+  if (r.skipped.empty()) {
+    put_stats(j, "", r.wall);
+    put_stats(j, "cpu_", r.cpu);
   }
-  put_stats(j, "", r.wall);
-  put_stats(j, "cpu_", r.cpu);
   j["n_points"] = r.n_points;
   if (!r.skips_larger.empty()) j["skips_larger_models"] = r.skips_larger;
   if (r.type == Record::Type::build) {
-    j["build_seconds"] = r.wall.median_s;
+    if (r.skipped.empty()) j["build_seconds"] = r.wall.median_s;
     j["index_bytes"] = r.index_bytes;
     j["index_bytes_per_point"] =
         r.n_points > 0 ? static_cast<double>(r.index_bytes) / static_cast<double>(r.n_points) : 0.0;
     j["build_peak_rss_bytes"] = r.build_peak_rss_bytes;
-    return j;
+    return;
   }
   j["n_queries"] = r.n_queries;
   if (r.skipped.empty() && r.n_queries > 0) {
     j["seconds_per_query"] = r.wall.median_s / static_cast<double>(r.n_queries);
   }
-  j["search"] = r.search;
-  j["strategy"] = r.strategy;
-  if (r.max_dist_m) j["max_dist"] = *r.max_dist_m;
-  if (r.k) j["k"] = *r.k;
   j["found"] = r.found;
   j["neighbours"] = r.neighbours;
   j["dist_sum"] = number_or_marker(r.dist_sum_m);
@@ -179,7 +171,108 @@ ordered_json to_json(const Record& r) {
     j["checked_against"] = r.checked_against;
     if (!*r.agrees) j["disagreement"] = r.disagreement;
   }
+}
+
+ordered_json base_record(const Record& r, const std::string& name, const char* run_type) {
+  ordered_json j;
+  j["name"] = name;
+  j["run_name"] = r.name;
+  j["run_type"] = run_type;
+  j["repetitions"] = r.repetitions;
+  j["threads"] = 1;
   return j;
+}
+
+// Microseconds: Google Benchmark's compare.py prints times as whole units, and a cell takes from tens of
+// microseconds to seconds.
+constexpr const char* time_unit = "us";
+constexpr double per_second = 1e6;
+
+void put_times(ordered_json& j, double wall_s, double cpu_s) {
+  j["real_time"] = number_or_marker(per_second * wall_s);
+  j["cpu_time"] = number_or_marker(per_second * cpu_s);
+  j["time_unit"] = time_unit;
+}
+
+// Seconds in one of Google Benchmark's time units.
+double seconds_per(const json& unit) {
+  static const std::map<std::string, double> units{{"ns", 1e-9}, {"us", 1e-6}, {"ms", 1e-3}, {"s", 1.0}};
+  const auto it = units.find(unit.get<std::string>());
+  if (it == units.end()) throw json::other_error::create(501, "unknown time_unit " + unit.dump(), nullptr);
+  return it->second;
+}
+
+double sample_stddev(const std::vector<double>& xs, double mean) {
+  if (xs.size() < 2) return 0.0;
+  double sq = 0.0;
+  for (const double x : xs) sq += (x - mean) * (x - mean);
+  return std::sqrt(sq / static_cast<double>(xs.size() - 1));
+}
+
+// Google Benchmark's aggregates of the repetitions: mean and median, and with two or more, stddev and cv
+// (cv as a fraction, as Google Benchmark writes it, with aggregate_unit "percentage").
+void put_aggregates(std::vector<ordered_json>& out, const Record& r) {
+  const auto& wall = r.wall_each_s;
+  const auto& cpu = r.cpu_each_s;
+  struct Aggregate {
+    const char* name;
+    double wall_s, cpu_s;
+  };
+  std::vector<Aggregate> aggregates{{"mean", r.wall.mean_s, r.cpu.mean_s}, {"median", r.wall.median_s, r.cpu.median_s}};
+  if (wall.size() >= 2) {
+    const double wall_sd = sample_stddev(wall, r.wall.mean_s), cpu_sd = sample_stddev(cpu, r.cpu.mean_s);
+    aggregates.push_back({"stddev", wall_sd, cpu_sd});
+    aggregates.push_back({"cv", r.wall.mean_s > 0 ? wall_sd / r.wall.mean_s : 0.0,
+                          r.cpu.mean_s > 0 ? cpu_sd / r.cpu.mean_s : 0.0});
+  }
+  for (const auto& a : aggregates) {
+    const std::string agg = a.name;
+    ordered_json j = base_record(r, r.name + "_" + agg, "aggregate");
+    j["aggregate_name"] = agg;
+    j["aggregate_unit"] = agg == "cv" ? "percentage" : "time";
+    j["iterations"] = r.repetitions;
+    if (agg == "cv") {
+      j["real_time"] = number_or_marker(a.wall_s);
+      j["cpu_time"] = number_or_marker(a.cpu_s);
+      j["time_unit"] = time_unit;
+    } else {
+      put_times(j, a.wall_s, a.cpu_s);
+    }
+    put_identity(j, r);
+    if (agg == "median") put_cell(j, r);
+    out.push_back(std::move(j));
+  }
+}
+
+// A cell's records, as Google Benchmark writes a benchmark run with repetitions: one per timed repetition,
+// then the aggregates. A skipped cell is one record marked as Google Benchmark marks an error, without
+// times, so that compare.py and the aggregates leave it out.
+std::vector<ordered_json> to_json(const Record& r) {
+  std::vector<ordered_json> out;
+  if (!r.skipped.empty() || r.wall_each_s.empty()) {
+    ordered_json j = base_record(r, r.name, "iteration");
+    j["repetition_index"] = 0;
+    j["iterations"] = 0;
+    if (!r.skipped.empty()) {
+      j["error_occurred"] = true;
+      j["error_message"] = r.skipped;
+      j["skipped"] = r.skipped;
+    }
+    put_identity(j, r);
+    put_cell(j, r);
+    out.push_back(std::move(j));
+    return out;
+  }
+  for (std::size_t i = 0; i < r.wall_each_s.size(); ++i) {
+    ordered_json j = base_record(r, r.name, "iteration");
+    j["repetition_index"] = i;
+    j["iterations"] = 1;
+    put_times(j, r.wall_each_s[i], i < r.cpu_each_s.size() ? r.cpu_each_s[i] : 0.0);
+    put_identity(j, r);
+    out.push_back(std::move(j));
+  }
+  put_aggregates(out, r);
+  return out;
 }
 
 // A count or size read back as a whole number within Int's range: a file may hold 1e30, 2.5 or -1 there,
@@ -195,20 +288,42 @@ Int whole_or(const json& j, const char* key, Int fallback) {
 }
 
 TimeStats get_stats(const json& j, const std::string& p) {
+  if (!j.contains(p + "median_s")) return {};  // a skipped cell has no times
   return {read_number(j.at(p + "median_s")), read_number(j.at(p + "mean_s")), read_number(j.at(p + "min_s")),
           read_number(j.at(p + "stddev_s"))};
 }
 
-Record from_json(const json& j) {
+bool is_aggregate(const json& j) { return j.value("run_type", std::string()) == "aggregate"; }
+
+// The record of a cell's group that carries the cell: the median aggregate, else the one record of a
+// skipped cell (or of a file written before repetitions were records).
+const json& cell_record(const std::vector<const json*>& group) {
+  for (const json* j : group) {
+    if (is_aggregate(*j) && j->value("aggregate_name", std::string()) == "median") return *j;
+  }
+  if (group.size() == 1 && !is_aggregate(*group.front())) return *group.front();
+  throw json::other_error::create(501, "cell '" + group.front()->value("run_name", std::string()) +
+                                           "' has repetitions but no median aggregate", nullptr);
+}
+
+// One cell back from its records (see to_json).
+Record from_json(const std::vector<const json*>& group) {
+  const json& j = cell_record(group);
   Record r;
   r.type = j.at("type") == "build" ? Record::Type::build : Record::Type::sweep;
-  r.name = j.at("name").get<std::string>();
+  r.name = j.contains("run_name") ? j.at("run_name").get<std::string>() : j.at("name").get<std::string>();
   r.model = j.at("model").get<std::string>();
   r.adapter = j.at("adapter").get<std::string>();
   r.exact = j.at("exact").get<bool>();
   r.repetitions = whole<int>(j, "repetitions");
   r.wall = get_stats(j, "");
   r.cpu = get_stats(j, "cpu_");
+  for (const json* rep : group) {
+    if (is_aggregate(*rep) || !rep->contains("real_time") || rep->contains("median_s")) continue;
+    const double unit_s = seconds_per(rep->at("time_unit"));
+    r.wall_each_s.push_back(read_number(rep->at("real_time")) * unit_s);
+    r.cpu_each_s.push_back(read_number(rep->at("cpu_time")) * unit_s);
+  }
   if (j.contains("skipped")) r.skipped = j["skipped"].get<std::string>();
   r.n_points = whole_or<std::size_t>(j, "n_points", 0);  // sweep records of older files lack it
   r.skips_larger = j.value("skips_larger_models", std::string());
@@ -235,17 +350,43 @@ Record from_json(const json& j) {
   return r;
 }
 
+std::string run_name_of(const json& j) {
+  const json& name = j.contains("run_name") ? j.at("run_name") : j.at("name");
+  return name.get<std::string>();
+}
+
+// The records of a list, grouped by cell (run_name) in order of first appearance.
+std::vector<std::vector<const json*>> cell_groups(const json& records) {
+  std::vector<std::vector<const json*>> groups;
+  std::map<std::string, std::size_t> where;
+  for (const auto& item : records) {
+    const auto [it, fresh] = where.emplace(run_name_of(item), groups.size());
+    if (fresh) groups.emplace_back();
+    groups[it->second].push_back(&item);
+  }
+  return groups;
+}
+
+std::string serialise(const std::vector<ordered_json>& records) {
+  std::string text;
+  for (const auto& j : records) (text += text.empty() ? "" : ",\n") += j.dump();  // a record a line
+  return text;
+}
+
 }  // namespace
 
 std::string batch_to_json_line(const std::vector<Record>& batch) {
   ordered_json list = ordered_json::array();
-  for (const auto& r : batch) list.push_back(to_json(r));
+  for (const auto& r : batch) {
+    for (auto& j : to_json(r)) list.push_back(std::move(j));
+  }
   return list.dump();
 }
 
 std::vector<Record> batch_from_json_line(const std::string& line) {
+  const json list = json::parse(line);
   std::vector<Record> batch;
-  for (const auto& item : json::parse(line)) batch.push_back(from_json(item));
+  for (const auto& group : cell_groups(list)) batch.push_back(from_json(group));
   return batch;
 }
 
@@ -289,11 +430,14 @@ std::vector<StoredRecord> read_records(const json& doc, const std::string& path,
   std::vector<StoredRecord> stored;
   std::set<std::string> names;
   try {
-    for (const auto& item : doc.at("benchmarks")) {
-      Record r = from_json(item);
+    if (!doc.at("benchmarks").is_array()) throw InputError("'benchmarks' is not a list");
+    for (const auto& group : cell_groups(doc.at("benchmarks"))) {
+      Record r = from_json(group);
       if (retry_failed && is_failure(r)) continue;
       // Rewritten as read (key order and fields of other versions kept), not as to_json would make it.
-      if (names.insert(r.name).second) stored.push_back({r, ordered_json::parse(item.dump()).dump(2)});
+      std::vector<ordered_json> as_read;
+      for (const json* item : group) as_read.push_back(ordered_json::parse(item->dump()));
+      if (names.insert(r.name).second) stored.push_back({r, serialise(as_read)});
     }
   } catch (const json::exception& e) {
     throw InputError("--resume: " + path + ": a record is malformed (" + e.what() + ")");
@@ -336,7 +480,7 @@ void ResultsFile::add(const std::vector<Record>& batch) {
   for (const auto& r : batch) {
     if (!names_.insert(r.name).second) continue;
     records_.push_back(r);
-    serialised_.push_back(to_json(r).dump(2));
+    serialised_.push_back(serialise(to_json(r)));
     pending_bytes_ += serialised_.back().size();
   }
   if (checkpoint_due()) write();

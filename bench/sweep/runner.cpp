@@ -207,9 +207,11 @@ double run_cell(const SearchIndex& index, const Cloud& queries, const Group& gro
     cpu.push_back(cpu_now_s() - cpu0);
     wall.push_back(std::chrono::duration<double>(t1 - t0).count());
     if (wall.back() > e.budget_s) break;  // no point repeating a cell that is over budget
-    if (e.cell_s > 0.0 && std::accumulate(wall.begin(), wall.end(), 0.0) > e.cell_s) break;
+    if (e.min_time_s > 0.0 && std::accumulate(wall.begin(), wall.end(), 0.0) >= e.min_time_s) break;
   }
   r.repetitions = static_cast<int>(wall.size());
+  r.wall_each_s = wall;
+  r.cpu_each_s = cpu;
   r.wall = stats_of(wall);
   r.cpu = stats_of(cpu);
   r.found = out.queries_with_neighbours();
@@ -374,6 +376,8 @@ std::unique_ptr<SearchIndex> build_index(const Unit& unit, const Experiment& e, 
     b.build_peak_rss_bytes = rss_after > rss_before ? rss_after - rss_before : 0;
     slowest_s = *std::max_element(wall.begin(), wall.end());
     b.repetitions = static_cast<int>(wall.size());
+    b.wall_each_s = wall;
+    b.cpu_each_s = cpu;
     b.wall = stats_of(wall);
     b.cpu = stats_of(cpu);
     b.index_bytes = index->index_bytes();

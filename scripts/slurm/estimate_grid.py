@@ -7,7 +7,8 @@ For each node count N it asks run_sweep for the plan of `--experiment paper --sh
 one CPU each) and prices every (model, adapter) unit with the reference runs (default
 results/reference/sweep_paper_grid*.json, 3 repetitions and a 0.5 s budget, then sweep_quick.json for
 brute force): a cell costs its measured
-median call time x the experiment's repetitions (100), a build its median x build_repetitions (5). Cells the
+median call time x its repetitions (up to 100, as many as fit in the experiment's min_time_seconds), a build
+its median x build_repetitions (5). Cells the
 reference skipped over its budget take the last time measured in their sweep (a lower bound: calls grow
 with the distance) until that passes the experiment's budget (10 s), after which one call ends the sweep.
 Units the reference lacks (libspatialindex past the first models, the real pairs) take their adapter's
@@ -16,12 +17,16 @@ hours of the slowest shard per N, which is the wall time of the job array with N
 """
 import argparse
 import json
+import math
 import statistics
 import subprocess
 import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "plots"))
+
+import results_io  # noqa: E402
 
 
 def plan_for(run_sweep, nodes):
@@ -32,15 +37,32 @@ def plan_for(run_sweep, nodes):
 
 def experiment_settings():
     e = json.loads((REPO / "bench" / "experiments" / "paper.json").read_text())
-    return e["repetitions"], e["build_repetitions"], e["budget_seconds"]
+    return Repetitions(e["repetitions"], e.get("min_time_seconds", 0)), e["build_repetitions"], e["budget_seconds"]
+
+
+class Repetitions:
+    """How many calls run_sweep makes of a cell whose call takes `seconds`: all of them, or with a minimum
+    time, until the calls took that long together."""
+    def __init__(self, most, min_time_s):
+        self.most, self.min_time_s = most, min_time_s
+
+    def of(self, seconds):
+        if self.min_time_s <= 0 or seconds <= 0:
+            return self.most
+        return min(self.most, max(1, math.ceil(self.min_time_s / seconds)))
+
+    def __str__(self):
+        return f"up to {self.most}" + (f" (until {self.min_time_s:g} s)" if self.min_time_s > 0 else "")
 
 
 def measured_cells(files):
-    """Cell name -> record, the first file that has the cell winning."""
+    """Cell name -> its record (the median aggregate when repetitions are records), the first file that has
+    the cell winning."""
     cells = {}
     for path in files:
-        for rec in json.loads(Path(path).read_text())["benchmarks"]:
-            cells.setdefault(rec["name"], rec)
+        records = json.loads(Path(path).read_text())["benchmarks"]
+        for rec in results_io.one_record_per_cell(records):
+            cells.setdefault(results_io.run_name(rec), rec)
     return cells
 
 
@@ -71,7 +93,7 @@ def unit_seconds(cells, measured, repetitions, build_repetitions, budget):
             total += seconds
             closed.add(sweep)
         else:
-            total += seconds * repetitions
+            total += seconds * repetitions.of(seconds)
     return total
 
 

@@ -192,7 +192,7 @@ write_experiment() {
   "repetitions": 60,
   "build_repetitions": 1,
   "budget_seconds": 10,
-  "max_cell_seconds": 0,
+  "min_time_seconds": 0,
   "neighbour_budget": 5000000,
   "synthetic_points": 2000,
   "seed": 1
@@ -215,9 +215,9 @@ write_icp_experiment() {
 EOF
 }
 
-json_count() {  # number of records in a results file (0 when absent or half written)
+json_count() {  # number of cells in a results file (0 when absent or half written)
   python3 -c 'import json,sys
-try: print(len(json.load(open(sys.argv[1]))["benchmarks"]))
+try: print(len({r.get("run_name") or r["name"] for r in json.load(open(sys.argv[1]))["benchmarks"]}))
 except Exception: print(0)' "$1"
 }
 
@@ -279,16 +279,21 @@ work, victim, merged = sys.argv[1:]
 load = lambda p: json.load(open(p))
 whole, partial, resumed, merged = load(f"{work}/whole.json"), load(f"{work}/partial.json"), load(victim), load(merged)
 problems = []
-kept = {r["name"]: r for r in resumed["benchmarks"]}
-problems += [f"{r['name']}: redone or changed on resume" for r in partial["benchmarks"] if kept.get(r["name"]) != r]
+def by_cell(doc):  # a cell's records (its repetitions and aggregates) by its run_name, in file order
+    cells = {}
+    for r in doc["benchmarks"]:
+        cells.setdefault(r.get("run_name") or r["name"], []).append(r)
+    return cells
+kept = by_cell(resumed)
+problems += [f"{name}: redone or changed on resume" for name, recs in by_cell(partial).items() if kept.get(name) != recs]
 if len(resumed["context"].get("resumed", [])) != 1:
     problems.append("the resubmitted shard did not resume its file")
-names = lambda doc: [r["name"] for r in doc["benchmarks"]]
+names = lambda doc: list(by_cell(doc))
 if names(merged) != names(whole):
     problems.append(f"merged cells differ from the single run's: {sorted(set(names(merged)) ^ set(names(whole)))[:10]}")
-found = {r["name"]: r.get("found") for r in whole["benchmarks"]}
+found = {r["name"]: r.get("found") for r in whole["benchmarks"] if "found" in r}
 problems += [f"{r['name']}: found {r.get('found')} != {found.get(r['name'])}" for r in merged["benchmarks"]
-             if r.get("found") != found.get(r["name"])]
+             if "found" in r and r.get("found") != found.get(r["name"])]
 if [m["shard"] for m in merged["context"]["merged_from"]] != [f"{i}/4" for i in range(4)]:
     problems.append("merged_from does not list the 4 shards")
 for p in problems[:20]:
