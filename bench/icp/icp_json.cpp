@@ -3,6 +3,7 @@
 #include "icp_record.hpp"
 #include "json_whole.hpp"
 #include "machine_json.hpp"
+#include "results_json.hpp"
 
 #include <Eigen/LU>
 
@@ -20,6 +21,7 @@ namespace {
 
 using nlohmann::json;
 using nlohmann::ordered_json;
+namespace results = bench::results;
 
 // Google Benchmark's context fields and the build's, as run_sweep writes them; nnb_build_type is the
 // build type as the programs report it (with "+sanitize" for sanitizer builds).
@@ -40,16 +42,9 @@ ordered_json matrix_rows(const Eigen::Matrix4d& m) {
 
 ordered_json record_json(const Record& rec) {
   const Result& res = rec.result;
-  ordered_json j;
-  j["name"] = record_name(rec);
-  j["run_name"] = record_name(rec);
-  j["run_type"] = "iteration";
-  j["repetitions"] = 1;
+  ordered_json j = results::base_record(record_name(rec), record_name(rec), "iteration", 1);
   j["repetition_index"] = rec.repetition;
-  j["threads"] = 1;
-  j["real_time"] = 1e3 * rec.icp_seconds;  // ms, as the sweep's records
-  j["cpu_time"] = 1e3 * rec.icp_cpu_seconds;
-  j["time_unit"] = "ms";
+  results::put_times(j, rec.icp_seconds, rec.icp_cpu_seconds);
   j["pair"] = rec.pair;
   j["adapter"] = rec.adapter;
   j["bucket_param"] = rec.bucket_param;
@@ -112,7 +107,7 @@ std::optional<double> reference_rotation_error_deg(const Record& record) {
   return rotation_angle_rad(record.reference->inverse() * record.result.pose) * 180.0 / 3.14159265358979323846;
 }
 
-std::string record_text(const Record& record) { return record_json(record).dump(2); }
+std::string record_text(const Record& record) { return record_json(record).dump(); }  // a record a line
 
 std::string results_json(const std::vector<std::string>& record_texts, const std::string& build_type,
                          const RunContext& run, const std::string& earlier_context) {
@@ -129,9 +124,7 @@ std::string results_json(const std::vector<std::string>& record_texts, const std
     context["resumed"].push_back(date);
     bench::put_run(context, bench::read_run_info());
   }
-  std::string text = "{\n\"context\": " + context.dump(2) + ",\n\"benchmarks\": [";
-  for (std::size_t i = 0; i < record_texts.size(); ++i) (text += i ? ",\n" : "\n") += record_texts[i];
-  return text + "\n]\n}\n";
+  return results::file_text(context, record_texts);
 }
 
 std::string results_json(const std::vector<Record>& records, const std::string& build_type, const RunContext& run) {
@@ -140,36 +133,10 @@ std::string results_json(const std::vector<Record>& records, const std::string& 
   return results_json(texts, build_type, run);
 }
 
-// Results files nest six levels. A deeper document is refused while it is read: dump() recurses once per
-// level (a stack overflow at some ten thousand) and dump(2) indents each line by its depth, so 40 KB of
-// brackets would be kept as nearly a gigabyte.
-constexpr int kMaxNesting = 64;
-
 Resumed read_resumable(const std::string& path, const RunContext& run) {
   std::ifstream in(path);
-  const auto refuse_deep = [&path](int depth, ordered_json::parse_event_t, ordered_json&) {
-    if (depth > kMaxNesting) {
-      throw InputError("--resume: " + path + " nests deeper than " + std::to_string(kMaxNesting) +
-                       " levels: not a results file");
-    }
-    return true;
-  };
-  ordered_json doc;
-  try {
-    doc = ordered_json::parse(in, refuse_deep);
-  } catch (const ordered_json::exception& e) {
-    throw InputError("--resume: " + path + " is not a results file (" + e.what() + ")");
-  }
-  if (!doc.is_object() || !doc.contains("context") || !doc["context"].contains("config") ||
-      !doc.contains("benchmarks") || !doc["benchmarks"].is_array() ||
-      (doc["context"].contains("resumed") && !doc["context"]["resumed"].is_array())) {
-    throw InputError("--resume: " + path + " has no context.config or benchmarks: not made by run_icp --experiment");
-  }
-  // Compared as plain JSON so that key order does not matter.
-  if (json::parse(doc["context"]["config"].dump()) != json::parse(run.config)) {
-    throw InputError("--resume: " + path + " was made with another configuration (experiment, settings, adapters, "
-                     "build or shard); refusing to mix results. Use another --out or remove the file.");
-  }
+  const auto doc = results::read_document<ordered_json>(in, path, "run_icp --experiment");
+  results::check_same_config(doc, run.config, path, "experiment, settings, adapters, build or shard");
   Resumed resumed;
   resumed.context = doc["context"].dump();
   std::set<std::string> seen;
@@ -179,7 +146,7 @@ Resumed read_resumable(const std::string& path, const RunContext& run) {
       const std::string cell = cell_name(item.at("name").get<std::string>(), repetition);
       if (!seen.insert(cell).second) continue;
       resumed.cells.push_back(cell);
-      resumed.records.push_back(item.dump(2));
+      resumed.records.push_back(item.dump());
     }
   } catch (const ordered_json::exception& e) {
     throw InputError("--resume: " + path + ": a record is malformed (" + e.what() + ")");

@@ -5,6 +5,7 @@
 #include "isolation.hpp"
 #include "json_whole.hpp"
 #include "machine_json.hpp"
+#include "results_json.hpp"
 #include "nnb/cloud.hpp"
 
 #include <nlohmann/json.hpp>
@@ -26,6 +27,8 @@ namespace nnb::sweep {
 
 using nlohmann::json;
 using nlohmann::ordered_json;
+namespace results = bench::results;
+using results::number_or_marker;
 
 struct ResultsFile::Json {
   ordered_json context;
@@ -106,12 +109,6 @@ ordered_json context_of(const RunDescription& run) {
   return c;
 }
 
-// JSON has no infinity: a non-finite value is written as the string "inf", "-inf" or "nan" and read back.
-ordered_json number_or_marker(double value) {
-  if (std::isfinite(value)) return value;
-  return std::isnan(value) ? "nan" : value > 0 ? "inf" : "-inf";
-}
-
 double read_number(const json& j) {
   if (j.is_number()) return j.get<double>();
   const std::string text = j.get<std::string>();
@@ -174,56 +171,21 @@ void put_cell(ordered_json& j, const Record& r) {
 }
 
 ordered_json base_record(const Record& r, const std::string& name, const char* run_type) {
-  ordered_json j;
-  j["name"] = name;
-  j["run_name"] = r.name;
-  j["run_type"] = run_type;
-  j["repetitions"] = r.repetitions;
-  j["threads"] = 1;
-  return j;
-}
-
-// Microseconds: Google Benchmark's compare.py prints times as whole units, and a cell takes from tens of
-// microseconds to seconds.
-constexpr const char* time_unit = "us";
-constexpr double per_second = 1e6;
-
-void put_times(ordered_json& j, double wall_s, double cpu_s) {
-  j["real_time"] = number_or_marker(per_second * wall_s);
-  j["cpu_time"] = number_or_marker(per_second * cpu_s);
-  j["time_unit"] = time_unit;
-}
-
-// Seconds in one of Google Benchmark's time units.
-double seconds_per(const json& unit) {
-  static const std::map<std::string, double> units{{"ns", 1e-9}, {"us", 1e-6}, {"ms", 1e-3}, {"s", 1.0}};
-  const auto it = units.find(unit.get<std::string>());
-  if (it == units.end()) throw json::other_error::create(501, "unknown time_unit " + unit.dump(), nullptr);
-  return it->second;
-}
-
-double sample_stddev(const std::vector<double>& xs, double mean) {
-  if (xs.size() < 2) return 0.0;
-  double sq = 0.0;
-  for (const double x : xs) sq += (x - mean) * (x - mean);
-  return std::sqrt(sq / static_cast<double>(xs.size() - 1));
+  return results::base_record(name, r.name, run_type, r.repetitions);
 }
 
 // Google Benchmark's aggregates of the repetitions: mean and median, and with two or more, stddev and cv
 // (cv as a fraction, as Google Benchmark writes it, with aggregate_unit "percentage").
 void put_aggregates(std::vector<ordered_json>& out, const Record& r) {
-  const auto& wall = r.wall_each_s;
-  const auto& cpu = r.cpu_each_s;
   struct Aggregate {
     const char* name;
     double wall_s, cpu_s;
   };
   std::vector<Aggregate> aggregates{{"mean", r.wall.mean_s, r.cpu.mean_s}, {"median", r.wall.median_s, r.cpu.median_s}};
-  if (wall.size() >= 2) {
-    const double wall_sd = sample_stddev(wall, r.wall.mean_s), cpu_sd = sample_stddev(cpu, r.cpu.mean_s);
-    aggregates.push_back({"stddev", wall_sd, cpu_sd});
-    aggregates.push_back({"cv", r.wall.mean_s > 0 ? wall_sd / r.wall.mean_s : 0.0,
-                          r.cpu.mean_s > 0 ? cpu_sd / r.cpu.mean_s : 0.0});
+  if (r.wall_each_s.size() >= 2) {  // stddev: the sample's (n - 1), as Google Benchmark's
+    aggregates.push_back({"stddev", r.wall.stddev_s, r.cpu.stddev_s});
+    aggregates.push_back({"cv", r.wall.mean_s > 0 ? r.wall.stddev_s / r.wall.mean_s : 0.0,
+                          r.cpu.mean_s > 0 ? r.cpu.stddev_s / r.cpu.mean_s : 0.0});
   }
   for (const auto& a : aggregates) {
     const std::string agg = a.name;
@@ -234,9 +196,9 @@ void put_aggregates(std::vector<ordered_json>& out, const Record& r) {
     if (agg == "cv") {
       j["real_time"] = number_or_marker(a.wall_s);
       j["cpu_time"] = number_or_marker(a.cpu_s);
-      j["time_unit"] = time_unit;
+      j["time_unit"] = results::time_unit;
     } else {
-      put_times(j, a.wall_s, a.cpu_s);
+      results::put_times(j, a.wall_s, a.cpu_s);
     }
     put_identity(j, r);
     if (agg == "median") put_cell(j, r);
@@ -267,7 +229,7 @@ std::vector<ordered_json> to_json(const Record& r) {
     ordered_json j = base_record(r, r.name, "iteration");
     j["repetition_index"] = i;
     j["iterations"] = 1;
-    put_times(j, r.wall_each_s[i], i < r.cpu_each_s.size() ? r.cpu_each_s[i] : 0.0);
+    results::put_times(j, r.wall_each_s[i], i < r.cpu_each_s.size() ? r.cpu_each_s[i] : 0.0);
     put_identity(j, r);
     out.push_back(std::move(j));
   }
@@ -320,7 +282,7 @@ Record from_json(const std::vector<const json*>& group) {
   r.cpu = get_stats(j, "cpu_");
   for (const json* rep : group) {
     if (is_aggregate(*rep) || !rep->contains("real_time") || rep->contains("median_s")) continue;
-    const double unit_s = seconds_per(rep->at("time_unit"));
+    const double unit_s = results::seconds_per(rep->at("time_unit"));
     r.wall_each_s.push_back(read_number(rep->at("real_time")) * unit_s);
     r.cpu_each_s.push_back(read_number(rep->at("cpu_time")) * unit_s);
   }
@@ -399,38 +361,14 @@ ResultsFile::~ResultsFile() = default;
 
 namespace {
 
-// run_sweep's files nest six levels. A deeper document is refused while it is read: dump() and == recurse
-// once per level (a stack overflow at some ten thousand), and dump(2) indents each line by its depth, so
-// 40 KB of brackets would be rewritten as nearly a gigabyte.
-constexpr int max_nesting = 64;
-
-// The whole document, refused unless it has what every run_sweep file has.
 json parse_document(std::istream& in, const std::string& path) {
-  const auto refuse_deep = [&path](int depth, json::parse_event_t, json&) {
-    if (depth > max_nesting) {
-      throw InputError("--resume: " + path + " nests deeper than " + std::to_string(max_nesting) +
-                       " levels: not a results file");
-    }
-    return true;
-  };
-  json doc;
-  try {
-    doc = json::parse(in, refuse_deep);
-  } catch (const json::exception& e) {
-    throw InputError("--resume: " + path + " is not a results file (" + e.what() + ")");
-  }
-  if (!doc.contains("context") || !doc["context"].contains("config") || !doc.contains("benchmarks") ||
-      (doc["context"].contains("resumed") && !doc["context"]["resumed"].is_array())) {
-    throw InputError("--resume: " + path + " has no context.config or benchmarks: not made by run_sweep");
-  }
-  return doc;
+  return results::read_document(in, path, "run_sweep");
 }
 
 std::vector<StoredRecord> read_records(const json& doc, const std::string& path, bool retry_failed) {
   std::vector<StoredRecord> stored;
   std::set<std::string> names;
   try {
-    if (!doc.at("benchmarks").is_array()) throw InputError("'benchmarks' is not a list");
     for (const auto& group : cell_groups(doc.at("benchmarks"))) {
       Record r = from_json(group);
       if (retry_failed && is_failure(r)) continue;
@@ -458,12 +396,7 @@ bool ResultsFile::resume(bool retry_failed) {
   if (!std::filesystem::exists(path_)) return false;
   std::ifstream in(path_);
   json doc = parse_document(in, path_);
-  // Compared as plain JSON so that key order does not matter.
-  const json wanted = json::parse(json_->context["config"].dump());
-  if (doc["context"]["config"] != wanted) {
-    throw InputError("--resume: " + path_ + " was made with another configuration (experiment, flags, adapters "
-                     "or build); refusing to mix results. Use another --out or remove the file.");
-  }
+  results::check_same_config(doc, json_->context["config"].dump(), path_, "experiment, flags, adapters or build");
   // Keep the original context (its date and machine), noting this resumption.
   ordered_json original = ordered_json::parse(doc["context"].dump());
   original["resumed"].push_back(json_->context["date"]);
@@ -507,9 +440,7 @@ bool ResultsFile::checkpoint_due() const {
 
 void ResultsFile::write() {
   bench::put_run(json_->context, bench::read_run_info());
-  std::string text = "{\n\"context\": " + json_->context.dump(2) + ",\n\"benchmarks\": [";
-  for (std::size_t i = 0; i < serialised_.size(); ++i) (text += i ? ",\n" : "\n") += serialised_[i];
-  text += "\n]\n}\n";
+  const std::string text = results::file_text(json_->context, serialised_);
   files::write_file_atomically(path_, text);
   written_bytes_ = text.size();
   pending_bytes_ = 0;
