@@ -123,17 +123,17 @@ int main(int argc, char** argv) {
     const ShardSpec shard = flags.shard.empty() ? ShardSpec{} : parse_shard(flags.shard);
     const std::string out = flags.out.empty() ? shard_path("results/sweep_" + experiment.name + ".json", shard) : flags.out;
     const LoadedData data = load_data(experiment, flags.data_dir);
+    const auto adapters = plan_adapters(experiment);
+    const SweepPlan plan(experiment, adapters);
+    const ShardPlan shards = plan_shards(plan, data, shard.count);
     if (flags.plan) {
-      print_plan(std::cout, plan_shards(experiment, plan_adapters(experiment), data, shard.count), experiment, shard,
-                 flags.plan_json);
+      print_plan(std::cout, shards, experiment, shard, flags.plan_json);
       return 0;
     }
     nnb::files::check_output_path(out, input_files(data, experiment));
     const nnb::files::OutputLock lock(out);
     nnb::files::remove_stale_temporaries(out);
     nnb::files::catch_interrupts();
-    const auto adapters = plan_adapters(experiment);
-    const ShardPlan shards = plan_shards(experiment, adapters, data, shard.count);
     const UnitFilter in_shard = shard.given ? shards.filter(shard.index) : UnitFilter{};
     ResultsFile results(out, {&experiment, &adapters, &data, read_machine_info(), build, shard_config_json(shard),
                               shard_context_json(shards, shard)});
@@ -146,7 +146,7 @@ int main(int argc, char** argv) {
       results.abort_after(static_cast<std::size_t>(std::atol(abort_after)));
     }
 
-    const auto planned = planned_cells(experiment, adapters, in_shard);
+    const auto planned = plan.cell_names(in_shard);
     std::size_t already = 0;
     for (const auto& name : planned) already += results.has(name);
     std::cerr << "run_sweep: experiment '" << experiment.name << "'"
@@ -159,7 +159,7 @@ int main(int argc, char** argv) {
 
     Progress progress(planned.size(), already, isatty(STDERR_FILENO) != 0);
     const std::size_t disagreements =
-        run_experiment(experiment, data, adapters, results.records(), results, progress, in_shard);
+        run_experiment(experiment, data, plan, results.records(), results, progress, in_shard);
     progress.finish();
     results.write();  // also when every cell was already there
 

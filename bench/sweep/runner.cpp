@@ -25,90 +25,10 @@
 namespace nnb::sweep {
 namespace {
 
-// One cell to run: a (kind, k) group is swept over the distances in increasing order.
-struct Cell {
-  std::string name;
-  std::optional<double> max_dist_m;
-  std::string dist_label;  // as in the name, "" for knn
-};
-
-struct Group {
-  SearchKind kind;
-  Strategy strategy;
-  std::optional<int> k;
-  std::vector<Cell> cells;
-};
-
-// Cell names use the spec with '/' replaced, so that a file path stays one name component.
-std::string name_component(const std::string& spec) {
-  std::string label = spec;
-  std::replace(label.begin(), label.end(), '/', '_');
-  return label;
-}
-
-std::string format_dist(double value_m, int decimals) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(decimals) << value_m;
-  return out.str();
-}
-
 std::string seconds_text(double s) {
   std::ostringstream out;
   out << std::setprecision(3) << s;
   return out.str();
-}
-
-// A ranged strategy other than the adapter's default gets its own component in the cell names.
-std::string kind_component(SearchKind kind, Strategy strategy, const PlannedAdapter& adapter) {
-  std::string text = std::string(to_string(kind)) + "/";
-  if (kind == SearchKind::ranged && strategy != adapter.info.ranged) text += "strategy:" + std::string(to_string(strategy)) + "/";
-  return text;
-}
-
-std::vector<Group> groups_for(const Experiment& e, const DataPair& pair, const PlannedAdapter& adapter) {
-  const std::string prefix = "sweep/" + name_component(pair.model) + "/" + name_component(pair.query) + "/" + adapter.name + "/";
-  const auto dists = e.dists.values();
-  const int decimals = e.dists.decimals();
-  std::vector<Group> groups;
-  for (SearchKind kind : adapter.kinds) {
-    const Strategy strategy = adapter.info.strategy(kind);
-    if (kind == SearchKind::knn) {
-      for (int k : e.ks) {
-        groups.push_back({kind, strategy, k, {{prefix + "knn/k:" + std::to_string(k), std::nullopt, ""}}});
-      }
-      continue;
-    }
-    std::vector<std::optional<int>> ks;
-    if (kind == SearchKind::radius) ks.push_back(std::nullopt);
-    else ks.assign(e.ks.begin(), e.ks.end());
-    const std::vector<Strategy> strategies = kind == SearchKind::ranged ? adapter.ranged_strategies
-                                                                        : std::vector<Strategy>{strategy};
-    for (const Strategy s : strategies) {
-      for (const auto& k : ks) {
-        Group group{kind, s, k, {}};
-        std::string base = prefix + kind_component(kind, s, adapter);
-        if (k && *k != 1) base += "k:" + std::to_string(*k) + "/";
-        for (double d : dists) {
-          const std::string label = format_dist(d, decimals);
-          group.cells.push_back({base + "max_dist:" + label, d, label});
-        }
-        groups.push_back(std::move(group));
-      }
-    }
-  }
-  return groups;
-}
-
-std::vector<std::string> distinct_models(const Experiment& e) {
-  std::vector<std::string> models;
-  for (const auto& pair : e.pairs) {
-    if (std::find(models.begin(), models.end(), pair.model) == models.end()) models.push_back(pair.model);
-  }
-  return models;
-}
-
-std::string build_name(const std::string& model, const std::string& adapter) {
-  return "build/" + name_component(model) + "/" + adapter;
 }
 
 TimeStats stats_of(std::vector<double> samples) {
@@ -222,18 +142,6 @@ double run_cell(const SearchIndex& index, const Cloud& queries, const Group& gro
   return *std::max_element(wall.begin(), wall.end());
 }
 
-// Distinct distances or data set paths can print alike ("a/b" and "a_b", 1e-10 and 2e-10 m at nine
-// decimals): their cells would overwrite each other, so the experiment is refused instead.
-void check_unique(const std::vector<std::string>& names) {
-  std::set<std::string> seen;
-  for (const auto& name : names) {
-    if (!seen.insert(name).second) {
-      throw InputError("two cells would share the name '" + name + "': give distances or data set names that "
-                       "print differently");
-    }
-  }
-}
-
 }  // namespace
 
 LoadedData load_data(const Experiment& e, const std::string& data_dir) {
@@ -253,70 +161,25 @@ LoadedData load_data(const Experiment& e, const std::string& data_dir) {
   return data;
 }
 
-std::vector<PlannedAdapter> plan_adapters(const Experiment& e) {
-  const auto wants = [&](SearchKind kind) {
-    return std::find(e.searches.begin(), e.searches.end(), to_string(kind)) != e.searches.end();
-  };
-  std::vector<PlannedAdapter> planned;
-  for (const auto& name : e.adapters) {
-    PlannedAdapter a{name, make_adapter(name)->info(), {}};
-    if (wants(SearchKind::ranged)) {
-      a.kinds.push_back(SearchKind::ranged);
-      a.ranged_strategies = a.info.strategies(SearchKind::ranged);
-      if (!e.every_strategy) a.ranged_strategies.resize(1);
-    }
-    for (SearchKind kind : {SearchKind::knn, SearchKind::radius}) {
-      const Strategy s = a.info.strategy(kind);
-      if (wants(kind) && (s == Strategy::native || s == Strategy::via_box)) a.kinds.push_back(kind);
-    }
-    planned.push_back(std::move(a));
-  }
-  return planned;
-}
-
-std::vector<std::string> planned_cells(const Experiment& e, const std::vector<PlannedAdapter>& adapters,
-                                       const UnitFilter& in_shard) {
-  std::vector<std::string> names;
-  for (const auto& model : distinct_models(e)) {
-    for (const auto& adapter : adapters) {
-      if (in_shard && !in_shard(model, adapter.name)) continue;
-      names.push_back(build_name(model, adapter.name));
-      for (const auto& pair : e.pairs) {
-        if (pair.model != model) continue;
-        for (const auto& group : groups_for(e, pair, adapter)) {
-          for (const auto& cell : group.cells) names.push_back(cell.name);
-        }
-      }
-    }
-  }
-  check_unique(names);
-  return names;
-}
-
 namespace {
 
-// One index and its cells: the (model, adapter) unit that is built once, swept, and isolated together.
+// A unit of the plan with its model cloud, as the runner takes it on.
 struct Unit {
   const std::string& model_spec;
   const datasets::NamedCloud& model;
   const PlannedAdapter& adapter;
-  std::string build;  // the build record's name
-  std::vector<std::pair<const DataPair*, std::vector<Group>>> work;
-  std::size_t to_do = 0;  // records still missing from the sink, the build's included
+  const std::string& build;  // the build record's name
+  const std::vector<PairWork>& work;
 };
 
-Unit plan_unit(const Experiment& e, const std::string& model_spec, const PlannedAdapter& adapter,
-               const LoadedData& data, const ResultsSink& sink) {
-  Unit unit{model_spec, data.models.at(model_spec), adapter, build_name(model_spec, adapter.name), {}, 0};
-  unit.to_do += !sink.has(unit.build);
-  for (const auto& pair : e.pairs) {
-    if (pair.model != model_spec) continue;
-    unit.work.emplace_back(&pair, groups_for(e, pair, adapter));
-    for (const auto& group : unit.work.back().second) {
-      for (const auto& cell : group.cells) unit.to_do += !sink.has(cell.name);
-    }
-  }
-  return unit;
+Unit unit_of(const PlanUnit& planned, const LoadedData& data) {
+  return {planned.model, data.models.at(planned.model), *planned.adapter, planned.build, planned.work};
+}
+
+// Records of the unit still missing from the sink, the build's included.
+std::size_t to_do(const PlanUnit& planned, const ResultsSink& sink) {
+  const auto names = planned.cell_names();
+  return static_cast<std::size_t>(std::count_if(names.begin(), names.end(), [&](const auto& n) { return !sink.has(n); }));
 }
 
 Record build_record(const Unit& unit) {
@@ -530,7 +393,7 @@ void run_unit_isolated(const Unit& unit, SweepState& s, ResultsSink& sink) {
 
 }  // namespace
 
-std::size_t run_experiment(const Experiment& e, const LoadedData& data, const std::vector<PlannedAdapter>& adapters,
+std::size_t run_experiment(const Experiment& e, const LoadedData& data, const SweepPlan& plan,
                            const std::vector<Record>& previous, ResultsSink& sink, Progress& progress,
                            const UnitFilter& in_shard) {
   Agreement agreement;
@@ -540,22 +403,20 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const st
     gate.observe(r);
   }
   SweepState state{e, data, agreement, gate, progress, 0};
-  for (const auto& model_spec : distinct_models(e)) {
-    for (const auto& adapter : adapters) {
-      if (in_shard && !in_shard(model_spec, adapter.name)) continue;
-      const Unit unit = plan_unit(e, model_spec, adapter, data, sink);
-      if (unit.to_do == 0) continue;
-      // Over the memory limit or closed by a smaller model: the build and all its cells are recorded skipped.
-      if (const std::string gated = gate.reason_to_skip(adapter.name, model_spec, unit.model.points.cols());
-          !gated.empty()) {
-        const auto batch = skipped_records(unit, gated, data, [&](const std::string& name) { return sink.has(name); });
-        progress.begin(unit.build);
-        sink.add(batch);
-        progress.end(batch.size(), "skipped " + std::to_string(batch.size()) + " cells: " + gated);
-        continue;
-      }
-      run_unit_isolated(unit, state, sink);
+  for (const auto& planned : plan.units()) {
+    if (in_shard && !in_shard(planned.model, planned.adapter->name)) continue;
+    if (to_do(planned, sink) == 0) continue;
+    const Unit unit = unit_of(planned, data);
+    // Over the memory limit or closed by a smaller model: the build and all its cells are recorded skipped.
+    if (const std::string gated = gate.reason_to_skip(unit.adapter.name, unit.model_spec, unit.model.points.cols());
+        !gated.empty()) {
+      const auto batch = skipped_records(unit, gated, data, [&](const std::string& name) { return sink.has(name); });
+      progress.begin(unit.build);
+      sink.add(batch);
+      progress.end(batch.size(), "skipped " + std::to_string(batch.size()) + " cells: " + gated);
+      continue;
     }
+    run_unit_isolated(unit, state, sink);
   }
   return state.disagreements;
 }

@@ -15,24 +15,13 @@ using nlohmann::ordered_json;
 
 namespace {
 
-// Each distinct model and the pairs that use it, in the run's order (as runner.cpp visits them).
-std::vector<std::pair<std::string, std::vector<const DataPair*>>> pairs_by_model(const Experiment& e) {
-  std::vector<std::pair<std::string, std::vector<const DataPair*>>> models;
-  for (const auto& pair : e.pairs) {
-    auto it = std::find_if(models.begin(), models.end(), [&](const auto& m) { return m.first == pair.model; });
-    if (it == models.end()) it = models.insert(models.end(), {pair.model, {}});
-    it->second.push_back(&pair);
-  }
-  return models;
-}
-
 // Every pair of a unit has the same cells (they depend on the adapter and the experiment only), so the
 // sweep cells split evenly over the pairs; the build counts as one cell of the model's own size.
-double unit_cost(const ShardUnit& unit, const std::vector<const DataPair*>& pairs, const LoadedData& data) {
+double unit_cost(const ShardUnit& unit, const std::vector<PairWork>& pairs, const LoadedData& data) {
   const double model_points = static_cast<double>(data.models.at(unit.model).points.cols());
   const double cells_per_pair = static_cast<double>(unit.cells.size() - 1) / static_cast<double>(pairs.size());
   double work = model_points * model_points;
-  for (const auto* pair : pairs) {
+  for (const auto& [pair, groups] : pairs) {
     work += model_points * static_cast<double>(data.queries.at(pair->query).points.cols()) * cells_per_pair;
   }
   return adapter_cost_factor(unit.adapter) * work * 1e-9;
@@ -83,22 +72,14 @@ UnitFilter ShardPlan::filter(int shard) const {
   return [mine](const std::string& model, const std::string& adapter) { return mine.count({model, adapter}) > 0; };
 }
 
-ShardPlan plan_shards(const Experiment& e, const std::vector<PlannedAdapter>& adapters, const LoadedData& data,
-                      int count) {
+ShardPlan plan_shards(const SweepPlan& sweep, const LoadedData& data, int count) {
   ShardPlan plan;
   plan.count = count;
-  plan.total_cells = planned_cells(e, adapters).size();  // also refuses cells that would share a name
-  for (const auto& [model, pairs] : pairs_by_model(e)) {
-    for (const auto& adapter : adapters) {
-      ShardUnit unit{model, adapter.name, {}, 0.0, 0};
-      const std::string& m = model;
-      const std::string& a = adapter.name;
-      unit.cells = planned_cells(e, adapters, [&](const std::string& um, const std::string& ua) {
-        return um == m && ua == a;
-      });
-      unit.cost = unit_cost(unit, pairs, data);
-      plan.units.push_back(std::move(unit));
-    }
+  plan.total_cells = sweep.cell_names().size();
+  for (const auto& planned : sweep.units()) {
+    ShardUnit unit{planned.model, planned.adapter->name, planned.cell_names(), 0.0, 0};
+    unit.cost = unit_cost(unit, planned.work, data);
+    plan.units.push_back(std::move(unit));
   }
   assign_longest_first(plan);
   return plan;

@@ -178,9 +178,9 @@ void print_shard_table(std::ostream& out, const BasicShardPlan<Unit>& plan, cons
 
 // ---- run_sweep's units ----
 
-struct PlannedAdapter;
+class SweepPlan;
 struct LoadedData;
-/// As in runner.hpp: which (model, adapter) units a run takes on.
+/// As in plan.hpp: which (model, adapter) units a run takes on.
 using UnitFilter = std::function<bool(const std::string& model, const std::string& adapter)>;
 
 /// One (model, adapter) unit: its cells (the build record included), expected cost and shard.
@@ -197,10 +197,9 @@ struct ShardPlan : BasicShardPlan<ShardUnit> {
   UnitFilter filter(int shard) const;
 };
 
-/// Splits the experiment's units into count shards (assign_longest_first). Deterministic for the same
+/// Splits the plan's units into count shards (assign_longest_first). Deterministic for the same
 /// experiment and data.
-ShardPlan plan_shards(const Experiment& experiment, const std::vector<PlannedAdapter>& adapters,
-                      const LoadedData& data, int count);
+ShardPlan plan_shards(const SweepPlan& plan, const LoadedData& data, int count);
 
 /// The plan as text (a table of shards; the units of the chosen shard when one is given) or JSON.
 void print_plan(std::ostream& out, const ShardPlan& plan, const Experiment& experiment, const ShardSpec& shard,
