@@ -77,12 +77,7 @@ std::string resume_command() {
   return command.find("'--resume'") == std::string::npos ? command + " --resume" : command;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  nnb::bench::mark_run_start(argc, argv);
-  CLI::App app{"Sweeps the maximal distance for every adapter, data set and query kind; writes JSON results."};
-  Flags flags;
+void add_flags(CLI::App& app, Flags& flags) {
   app.add_option("--experiment", flags.experiment, "experiment name in bench/experiments/ or a JSON file")
       ->capture_default_str();
   app.add_option("--adapters", flags.adapters, "comma-separated adapters (default: the experiment's)");
@@ -108,69 +103,87 @@ int main(int argc, char** argv) {
   app.add_option("--cell-timeout", flags.cell_timeout_s,
                  "seconds without a finished cell after which a library is killed and its cells recorded failed "
                  "(default 1800)");
-  if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_sweep")) return *code;
+}
 
-  const BuildInfo build = read_build_info();
-  if (!build.release()) {
-    std::cerr << "run_sweep: WARNING: built " << (build.ndebug ? "" : "without NDEBUG ")
-              << (build.sanitizers ? "with sanitizers " : "") << "(" << build.build_type
-              << "): these timings are NOT reference timings; use a Release build without sanitizers\n";
+void warn_unless_release(const BuildInfo& build) {
+  if (build.release()) return;
+  std::cerr << "run_sweep: WARNING: built " << (build.ndebug ? "" : "without NDEBUG ")
+            << (build.sanitizers ? "with sanitizers " : "") << "(" << build.build_type
+            << "): these timings are NOT reference timings; use a Release build without sanitizers\n";
+}
+
+void report_disagreements(const std::vector<Record>& records, std::size_t in_this_run, const std::string& out) {
+  std::size_t total = 0;
+  for (const auto& r : records) total += r.agrees && !*r.agrees;
+  if (total == 0) return;
+  std::cerr << "run_sweep: !!! " << total << " DISAGREEMENTS between exact adapters (" << in_this_run
+            << " in this run): see the records with \"agrees\": false in " << out << "\n";
+}
+
+// Plans the experiment, then runs the cells not yet in the results file (or prints the plan).
+int sweep(const Flags& flags, const BuildInfo& build) {
+  const auto all_adapters = nnb::adapter_names();
+  const Experiment experiment = configure(flags, all_adapters, build.source_dir);
+  const ShardSpec shard = flags.shard.empty() ? ShardSpec{} : parse_shard(flags.shard);
+  const std::string out = flags.out.empty() ? shard_path("results/sweep_" + experiment.name + ".json", shard) : flags.out;
+  const LoadedData data = load_data(experiment, flags.data_dir);
+  const auto adapters = plan_adapters(experiment);
+  const SweepPlan plan(experiment, adapters);
+  const ShardPlan shards = plan_shards(plan, data, shard.count);
+  if (flags.plan) {
+    print_plan(std::cout, shards, experiment, shard, flags.plan_json);
+    return 0;
+  }
+  nnb::files::check_output_path(out, input_files(data, experiment));
+  const nnb::files::OutputLock lock(out);
+  nnb::files::remove_stale_temporaries(out);
+  nnb::files::catch_interrupts();
+  const UnitFilter in_shard = shard.given ? shards.filter(shard.index) : UnitFilter{};
+  ResultsFile results(out, {&experiment, &adapters, &data, read_machine_info(), build, shard_config_json(shard),
+                            shard_context_json(shards, shard)});
+  if (flags.resume) {
+    if (!results.resume(flags.retry_failed)) std::cerr << "run_sweep: --resume: " << out << " does not exist yet, starting afresh\n";
+  } else if (std::filesystem::exists(out)) {
+    std::cerr << "run_sweep: note: replacing " << out << " at the first checkpoint (--resume continues it)\n";
+  }
+  if (const char* abort_after = std::getenv("NNB_SWEEP_ABORT_AFTER_CELLS")) {
+    results.abort_after(static_cast<std::size_t>(std::atol(abort_after)));
   }
 
+  const auto planned = plan.cell_names(in_shard);
+  std::size_t already = 0;
+  for (const auto& name : planned) already += results.has(name);
+  std::cerr << "run_sweep: experiment '" << experiment.name << "'"
+            << (shard.given ? ", shard " + flags.shard : std::string()) << ": " << planned.size() << " cells ("
+            << already << " already in " << out << "), " << adapters.size() << " adapters, "
+            << experiment.pairs.size() << " model/query pairs, " << experiment.dists.values().size()
+            << " distances, " << experiment.repetitions << " repetitions, budget " << experiment.budget_s << " s"
+            << (experiment.skip_larger_models ? " (also for larger models)" : "") << ", memory limit "
+            << experiment.memory_limit_gib << " GiB\n";
+
+  Progress progress(planned.size(), already, isatty(STDERR_FILENO) != 0);
+  const std::size_t disagreements =
+      run_experiment(experiment, data, plan, results.records(), results, progress, in_shard);
+  progress.finish();
+  results.write();  // also when every cell was already there
+
+  report_disagreements(results.records(), disagreements, out);
+  std::cerr << "run_sweep: wrote " << results.records().size() << " cells to " << out << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  nnb::bench::mark_run_start(argc, argv);
+  CLI::App app{"Sweeps the maximal distance for every adapter, data set and query kind; writes JSON results."};
+  Flags flags;
+  add_flags(app, flags);
+  if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_sweep")) return *code;
+  const BuildInfo build = read_build_info();
+  warn_unless_release(build);
   try {
-    const auto all_adapters = nnb::adapter_names();
-    const Experiment experiment = configure(flags, all_adapters, build.source_dir);
-    const ShardSpec shard = flags.shard.empty() ? ShardSpec{} : parse_shard(flags.shard);
-    const std::string out = flags.out.empty() ? shard_path("results/sweep_" + experiment.name + ".json", shard) : flags.out;
-    const LoadedData data = load_data(experiment, flags.data_dir);
-    const auto adapters = plan_adapters(experiment);
-    const SweepPlan plan(experiment, adapters);
-    const ShardPlan shards = plan_shards(plan, data, shard.count);
-    if (flags.plan) {
-      print_plan(std::cout, shards, experiment, shard, flags.plan_json);
-      return 0;
-    }
-    nnb::files::check_output_path(out, input_files(data, experiment));
-    const nnb::files::OutputLock lock(out);
-    nnb::files::remove_stale_temporaries(out);
-    nnb::files::catch_interrupts();
-    const UnitFilter in_shard = shard.given ? shards.filter(shard.index) : UnitFilter{};
-    ResultsFile results(out, {&experiment, &adapters, &data, read_machine_info(), build, shard_config_json(shard),
-                              shard_context_json(shards, shard)});
-    if (flags.resume) {
-      if (!results.resume(flags.retry_failed)) std::cerr << "run_sweep: --resume: " << out << " does not exist yet, starting afresh\n";
-    } else if (std::filesystem::exists(out)) {
-      std::cerr << "run_sweep: note: replacing " << out << " at the first checkpoint (--resume continues it)\n";
-    }
-    if (const char* abort_after = std::getenv("NNB_SWEEP_ABORT_AFTER_CELLS")) {
-      results.abort_after(static_cast<std::size_t>(std::atol(abort_after)));
-    }
-
-    const auto planned = plan.cell_names(in_shard);
-    std::size_t already = 0;
-    for (const auto& name : planned) already += results.has(name);
-    std::cerr << "run_sweep: experiment '" << experiment.name << "'"
-              << (shard.given ? ", shard " + flags.shard : std::string()) << ": " << planned.size() << " cells ("
-              << already << " already in " << out << "), " << adapters.size() << " adapters, "
-              << experiment.pairs.size() << " model/query pairs, " << experiment.dists.values().size()
-              << " distances, " << experiment.repetitions << " repetitions, budget " << experiment.budget_s << " s"
-              << (experiment.skip_larger_models ? " (also for larger models)" : "") << ", memory limit "
-              << experiment.memory_limit_gib << " GiB\n";
-
-    Progress progress(planned.size(), already, isatty(STDERR_FILENO) != 0);
-    const std::size_t disagreements =
-        run_experiment(experiment, data, plan, results.records(), results, progress, in_shard);
-    progress.finish();
-    results.write();  // also when every cell was already there
-
-    std::size_t total_disagreements = 0;
-    for (const auto& r : results.records()) total_disagreements += r.agrees && !*r.agrees;
-    if (total_disagreements > 0) {
-      std::cerr << "run_sweep: !!! " << total_disagreements << " DISAGREEMENTS between exact adapters ("
-                << disagreements << " in this run): see the records with \"agrees\": false in " << out << "\n";
-    }
-    std::cerr << "run_sweep: wrote " << results.records().size() << " records to " << out << "\n";
-    return 0;
+    return sweep(flags, build);
   } catch (const Interrupted& e) {
     std::cerr << "run_sweep: " << e.what() << "; finish with: " << resume_command() << "\n";
     return 128 + nnb::files::interrupted();
