@@ -115,16 +115,6 @@ double rotation_angle_rad(const Eigen::Matrix4d& transform) {
   return std::atan2(0.5 * axis_sin.norm(), 0.5 * (r.trace() - 1.0));
 }
 
-Result register_clouds(SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
-  validate(options);
-  const auto start = Clock::now();
-  index.build(model);
-  const double build_seconds = seconds_since(start);
-  Result result = register_prebuilt(index, model, query, options);
-  result.build_seconds = build_seconds;
-  return result;
-}
-
 Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
   validate(options);
   if (index.model_size() != static_cast<std::size_t>(model.cols())) {

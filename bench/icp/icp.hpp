@@ -76,9 +76,6 @@ bool estimate_rigid_transform(const Cloud& source, const Cloud& target, Eigen::M
 /// Rotation angle of a rigid transform's rotation block, in radians.
 double rotation_angle_rad(const Eigen::Matrix4d& transform);
 
-/// Builds index over model (timed) and registers query onto it; the query and model must stay alive.
-Result register_clouds(SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options);
-
 /// Registers query onto an index already built over model (build_seconds stays 0).
 Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options);
 
