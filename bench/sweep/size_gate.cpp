@@ -66,11 +66,11 @@ void SizeGate::judge_build(Record& b, double slowest_s) const {
   }
 }
 
-void SizeGate::judge_cell(Record& r, double slowest_s) const {
+void SizeGate::judge_cell(Record& r, double fastest_s) const {
   if (r.skipped.rfind("out of memory", 0) == 0) r.skips_larger = r.skipped;
-  if (!by_size_ || !r.skipped.empty() || slowest_s <= budget_s_) return;
+  if (!by_size_ || !r.skipped.empty() || fastest_s <= budget_s_) return;
   std::ostringstream out;
-  out << "over budget: " << seconds_text(slowest_s) << " per call";
+  out << "over budget: " << seconds_text(fastest_s) << " per call";
   if (r.max_dist_m) out << " at max_dist " << *r.max_dist_m;
   out << " at " << r.n_points << " points > " << seconds_text(budget_s_);
   r.skips_larger = out.str();

@@ -21,9 +21,9 @@ class SizeGate {
   /// Sets b.skips_larger when a build ran out of memory, went over the memory limit, or (skip_larger_models)
   /// took longer than the budget; slowest_s: its slowest repetition, seconds.
   void judge_build(Record& b, double slowest_s) const;
-  /// Sets r.skips_larger when a cell ran out of memory or (skip_larger_models) its slowest call took longer
+  /// Sets r.skips_larger when a cell ran out of memory or (skip_larger_models) its fastest call took longer
   /// than the budget.
-  void judge_cell(Record& r, double slowest_s) const;
+  void judge_cell(Record& r, double fastest_s) const;
   /// Learns from a record, new or resumed: the memory per point of a build, the closure a record carries.
   void observe(const Record& r);
 
