@@ -220,6 +220,29 @@ def case_compare_py():
     check(any(row[0] == f"{cell}_median" for row in rows), f"no median aggregate row: {rows}")
 
 
+def case_table1():
+    """nns_query --table1 (from the adapters built in) and plots/table1.py (from a results file) write the
+    same rows for the same adapters."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "plots"))
+    import results_io  # noqa: E402
+    from table1 import table1_lines  # noqa: E402
+    out = fresh_workdir() / "table1.json"
+    adapters = ["brute_force", "flann_kdtree", "nanoflann_kdtree", "ours_octree", "pcl_octree_approx"]
+    run(["--points", "300", "--dists", "0:0.1:0.1", "--repetitions", "1", "--adapters", ",".join(adapters),
+         "--out", str(out)])
+    from_results = table1_lines(results_io.load([out]))
+    nns_query = Path(RUN_SWEEP).parent / "nns_query"
+    proc = subprocess.run([str(nns_query), "--table1"], capture_output=True, text=True, timeout=300)
+    check(proc.returncode == 0, f"nns_query --table1: {proc.stderr}")
+    from_build = proc.stdout.splitlines()
+    check(from_build[:2] == from_results[:2], f"headers differ:\n{from_build[:2]}\n{from_results[:2]}")
+    rows = {line.split(" | ")[0][2:]: line for line in from_build[2:]}
+    for line in from_results[2:]:
+        name = line.split(" | ")[0][2:]
+        check(rows.get(name) == line, f"{name}:\n  nns_query: {rows.get(name)}\n  table1.py: {line}")
+    check(len(from_results) == 2 + len(adapters), f"table1.py rows: {from_results}")
+
+
 def case_strategies():
     """--strategies all runs ranged search with every strategy an adapter offers, each its own named series,
     every one cross-checked; the default keeps the plain name."""
@@ -736,7 +759,7 @@ def case_shards():
 
 
 CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "min_time": case_min_time,
-         "compare_py": case_compare_py, "strategies": case_strategies, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
+         "compare_py": case_compare_py, "table1": case_table1, "strategies": case_strategies, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
          "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
          "scale_budget": case_scale_budget, "shards": case_shards}
 

@@ -5,12 +5,15 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 namespace nnb::cli {
 
@@ -112,32 +115,50 @@ void print_adapter_list(std::ostream& out) {
 
 namespace {
 
+// The display text of a strategy; plots/style.py's STRATEGY_TEXT holds the same words.
 std::string table_cell(Strategy strategy) {
   switch (strategy) {
     case Strategy::native: return "native";
     case Strategy::native_unpruned: return "native, unpruned";
     case Strategy::via_knn: return "via k-NN";
     case Strategy::via_radius: return "via radius";
-    case Strategy::via_box: return "via box + filter";
+    case Strategy::via_box: return "via box";
     case Strategy::unsupported: return "no";
   }
   return "?";
 }
 
+// The library's own ranged calls are in bold, as plots/table1.py writes them.
+std::string ranged_cell(Strategy strategy) {
+  const bool own = strategy == Strategy::native || strategy == Strategy::native_unpruned;
+  return own ? "**" + table_cell(strategy) + "**" : table_cell(strategy);
+}
+
+std::string escaped(std::string text) {
+  for (std::size_t at = text.find('|'); at != std::string::npos; at = text.find('|', at + 2)) text.insert(at, "\\");
+  return text;
+}
+
 }  // namespace
 
+// The same table as plots/table1.py makes from a results file (tests/test_run_sweep.py checks they agree).
 std::string table1_markdown() {
   std::ostringstream md;
-  md << "| adapter | library | version | data structure | precision | k-NN | fixed radius | ranged | parameters |\n"
-     << "|---|---|---|---|---|---|---|---|---|\n";
-  for (const auto& entry : adapter_registry()) {
-    const auto index = entry.make({});
-    const auto& info = index->info();
+  md << "| adapter | library | version | data structure | precision | k-NN | fixed radius | ranged | exact | parameters |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|\n";
+  std::vector<std::pair<std::string, AdapterInfo>> rows;
+  for (const auto& entry : adapter_registry()) rows.emplace_back(entry.name, entry.make({})->info());
+  std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [name, info] : rows) {
     std::string params;
-    for (const auto& [name, value] : info.params) params += (params.empty() ? "" : ", ") + name + "=" + value;
-    md << "| " << info.name << " | " << info.library << " | " << info.version << " | " << info.structure
-       << (info.exact ? "" : " (approximate)") << " | " << info.scalar << " | " << table_cell(info.knn) << " | "
-       << table_cell(info.radius) << " | " << strategy_list(info, "; ", table_cell) << " | " << params << " |\n";
+    for (const auto& [key, value] : info.params) params += (params.empty() ? "" : ", ") + key + "=" + value;
+    const std::vector<std::string> cells{info.name, info.library, info.version, info.structure, info.scalar,
+                                         table_cell(info.knn), table_cell(info.radius),
+                                         strategy_list(info, "; ", ranged_cell),
+                                         info.exact ? "yes" : "**no (approximate)**", params.empty() ? "-" : params};
+    md << "|";
+    for (const auto& cell : cells) md << " " << escaped(cell) << " |";
+    md << "\n";
   }
   return md.str();
 }
