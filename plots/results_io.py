@@ -92,16 +92,8 @@ class Results:
             info.setdefault("exact", rec["exact"])
 
 
-def _name_parts(rec):
-    return str(rec.get("name", "")).split("/")
-
-
 def _read_sweep(results, rec, sizes=None):
-    parts = _name_parts(rec)
-    model = rec.get("model") or (parts[1] if len(parts) > 1 else None)
-    query = rec.get("query") or (parts[2] if len(parts) > 2 else None)
-    adapter = rec.get("adapter") or (parts[3] if len(parts) > 3 else None)
-    search = rec.get("search") or (parts[4] if len(parts) > 4 else None)
+    model, query, adapter, search = (rec.get(field) for field in ("model", "query", "adapter", "search"))
     if not (model and query and adapter and search):
         warn(f"sweep record {rec.get('name')!r} lacks model/query/adapter/search: ignored")
         return
@@ -126,9 +118,7 @@ def _read_sweep(results, rec, sizes=None):
 
 
 def _read_build(results, rec):
-    parts = _name_parts(rec)
-    model = rec.get("model") or (parts[1] if len(parts) > 1 else None)
-    adapter = rec.get("adapter") or (parts[2] if len(parts) > 2 else None)
+    model, adapter = rec.get("model"), rec.get("adapter")
     if model and adapter and _skip_reason(rec):
         results.build_skips[(model, adapter)] = _skip_reason(rec)
         return
@@ -145,9 +135,7 @@ def _read_build(results, rec):
 
 
 def _read_icp(results, rec, experiment):
-    parts = _name_parts(rec)
-    pair = rec.get("pair") or (parts[1] if len(parts) > 1 else None)
-    adapter = rec.get("adapter") or (parts[2] if len(parts) > 2 else None)
+    pair, adapter = rec.get("pair"), rec.get("adapter")
     icp_seconds = _number(rec.get("icp_seconds"))
     if not (pair and adapter) or icp_seconds is None or _skip_reason(rec):
         warn(f"icp record {rec.get('name')!r} lacks pair/adapter/icp_seconds or was skipped: ignored")
@@ -158,6 +146,11 @@ def _read_icp(results, rec, experiment):
                               _number(rec.get("nns_seconds")), _number(rec.get("iterations")),
                               converged if isinstance(converged, bool) else None))
     results._note_adapter(rec)
+
+
+def _name_parts(rec):
+    """micro_nns's records are Google Benchmark's own: their name is all they say (Ranged1NN/pair/adapter/m)."""
+    return str(rec.get("name", "")).split("/")
 
 
 def _read_micro(results, rec):
