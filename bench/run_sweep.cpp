@@ -105,13 +105,6 @@ void add_flags(CLI::App& app, Flags& flags) {
                  "(default 1800)");
 }
 
-void warn_unless_release(const BuildInfo& build) {
-  if (build.release()) return;
-  std::cerr << "run_sweep: WARNING: built " << (build.ndebug ? "" : "without NDEBUG ")
-            << (build.sanitizers ? "with sanitizers " : "") << "(" << build.build_type
-            << "): these timings are NOT reference timings; use a Release build without sanitizers\n";
-}
-
 void report_disagreements(const std::vector<Record>& records, std::size_t in_this_run, const std::string& out) {
   std::size_t total = 0;
   for (const auto& r : records) total += r.agrees && !*r.agrees;
@@ -180,8 +173,8 @@ int main(int argc, char** argv) {
   Flags flags;
   add_flags(app, flags);
   if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_sweep")) return *code;
+  nnb::cli::warn_if_not_release(std::cerr);
   const BuildInfo build = read_build_info();
-  warn_unless_release(build);
   try {
     return sweep(flags, build);
   } catch (const Interrupted& e) {
