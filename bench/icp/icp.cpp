@@ -115,7 +115,27 @@ double rotation_angle_rad(const Eigen::Matrix4d& transform) {
   return std::atan2(0.5 * axis_sin.norm(), 0.5 * (r.trace() - 1.0));
 }
 
-Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
+namespace {
+
+// The query points with a neighbour (source) and their neighbours (target), as columns; returns the
+// number of pairs and adds their squared distances to sum_sq_m2.
+Eigen::Index pair_up(const Neighbours& pairs, const Cloud& query, const Cloud& model, std::size_t correspondences,
+                     Cloud& source, Cloud& target, double& sum_sq_m2) {
+  source.resize(3, static_cast<Eigen::Index>(correspondences));
+  target.resize(3, static_cast<Eigen::Index>(correspondences));
+  Eigen::Index n = 0;
+  for (std::size_t q = 0; q < pairs.n_queries(); ++q) {
+    if (pairs.count(q) == 0) continue;
+    const std::size_t at = pairs.offsets[q];
+    source.col(n) = query.col(static_cast<Eigen::Index>(q));
+    target.col(n) = model.col(static_cast<Eigen::Index>(pairs.indices[at]));
+    sum_sq_m2 += pairs.sq_dists[at];
+    ++n;
+  }
+  return n;
+}
+
+void check_inputs(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
   validate(options);
   if (index.model_size() != static_cast<std::size_t>(model.cols())) {
     throw InputError("ICP: the index was not built over this model cloud");
@@ -124,12 +144,44 @@ Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Clo
   if (const auto bad = first_non_finite(query); bad >= 0) {
     throw InputError("ICP: query point " + std::to_string(bad) + " has a non-finite coordinate");
   }
+}
 
+// One iteration after the search: the pairs, the rigid transform that best maps them, the step it makes.
+// Sets result.failure (and returns false) when there are too few pairs or they are degenerate.
+// source and target are scratch, kept by the caller so that iterations reuse their memory.
+bool estimate_step(const Neighbours& pairs, const Cloud& query, const Cloud& model, const Options& options, int i,
+                   Cloud& source, Cloud& target, Iteration& it, Result& result) {
+  it.correspondences = pairs.queries_with_neighbours();
+  if (it.correspondences < options.min_correspondences) {
+    result.failure = "too few correspondences (" + std::to_string(it.correspondences) + " within " +
+                     str(it.max_dist_m) + " m) at iteration " + std::to_string(i + 1);
+    return false;
+  }
+  double sum_sq_m2 = 0.0;
+  const Eigen::Index n = pair_up(pairs, query, model, it.correspondences, source, target, sum_sq_m2);
+  it.rms_m = std::sqrt(sum_sq_m2 / static_cast<double>(n));
+  Eigen::Matrix4d next;
+  if (!estimate_rigid_transform(source, target, next)) {
+    result.failure = "degenerate correspondences (collinear or coincident) at iteration " + std::to_string(i + 1);
+    return false;
+  }
+  const Eigen::Matrix4d step = next * result.pose.inverse();
+  it.translation_step_m = step.topRightCorner<3, 1>().norm();
+  it.rotation_step_rad = rotation_angle_rad(step);
+  const Cloud residual = transformed(source, next) - target;
+  it.rms_after_m = std::sqrt(residual.colwise().squaredNorm().sum() / static_cast<double>(n));
+  result.pose = next;
+  return true;
+}
+
+}  // namespace
+
+Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
+  check_inputs(index, model, query, options);
   Result result;
   result.pose = checked_rigid(options.initial_pose, "ICP: the initial pose");
   Neighbours pairs;
-  Cloud source;
-  Cloud target;
+  Cloud source, target;
   for (int i = 0; i < options.max_iterations; ++i) {
     Iteration it;
     it.max_dist_m = options.max_dist.at(i);
@@ -143,40 +195,9 @@ Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Clo
     result.nns_seconds += seconds_since(t0);
 
     t0 = Clock::now();
-    it.correspondences = pairs.queries_with_neighbours();
-    if (it.correspondences < options.min_correspondences) {
-      result.failure = "too few correspondences (" + std::to_string(it.correspondences) + " within " +
-                       str(it.max_dist_m) + " m) at iteration " + std::to_string(i + 1);
-      result.estimate_seconds += seconds_since(t0);
-      break;
-    }
-    source.resize(3, static_cast<Eigen::Index>(it.correspondences));
-    target.resize(3, static_cast<Eigen::Index>(it.correspondences));
-    double sum_sq_m2 = 0.0;
-    Eigen::Index n = 0;
-    for (std::size_t q = 0; q < pairs.n_queries(); ++q) {
-      if (pairs.count(q) == 0) continue;
-      const std::size_t at = pairs.offsets[q];
-      source.col(n) = query.col(static_cast<Eigen::Index>(q));
-      target.col(n) = model.col(static_cast<Eigen::Index>(pairs.indices[at]));
-      sum_sq_m2 += pairs.sq_dists[at];
-      ++n;
-    }
-    it.rms_m = std::sqrt(sum_sq_m2 / static_cast<double>(n));
-
-    Eigen::Matrix4d next;
-    if (!estimate_rigid_transform(source, target, next)) {
-      result.failure = "degenerate correspondences (collinear or coincident) at iteration " + std::to_string(i + 1);
-      result.estimate_seconds += seconds_since(t0);
-      break;
-    }
-    const Eigen::Matrix4d step = next * result.pose.inverse();
-    it.translation_step_m = step.topRightCorner<3, 1>().norm();
-    it.rotation_step_rad = rotation_angle_rad(step);
-    const Cloud residual = transformed(source, next) - target;
-    it.rms_after_m = std::sqrt(residual.colwise().squaredNorm().sum() / static_cast<double>(n));
-    result.pose = next;
+    const bool stepped = estimate_step(pairs, query, model, options, i, source, target, it, result);
     result.estimate_seconds += seconds_since(t0);
+    if (!stepped) break;
 
     result.per_iteration.push_back(it);
     result.iterations = i + 1;
