@@ -99,6 +99,50 @@ void check_neighbour_budget(const Options& opt, nnb::SearchKind kind, const nnb:
   }
 }
 
+// Runs the search opt.repeat times; returns the median time of a call, seconds.
+double timed_searches(const Options& opt, nnb::SearchKind kind, nnb::Strategy strategy, const nnb::SearchIndex& index,
+                      const nnb::Cloud& queries, nnb::Neighbours& found) {
+  std::vector<double> query_seconds;
+  for (int r = 0; r < opt.repeat; ++r) {
+    const auto start = std::chrono::steady_clock::now();
+    switch (kind) {
+      case nnb::SearchKind::knn: index.knn(queries, opt.k, found); break;
+      case nnb::SearchKind::radius: index.radius(queries, opt.max_dist_m, found); break;
+      case nnb::SearchKind::ranged: index.ranged(queries, opt.k, opt.max_dist_m, found, strategy); break;
+    }
+    query_seconds.push_back(seconds_since(start));
+  }
+  std::sort(query_seconds.begin(), query_seconds.end());
+  return query_seconds[query_seconds.size() / 2];
+}
+
+void write_stats(const Options& opt, const nnb::AdapterInfo& info, nnb::Strategy strategy,
+                 const nnb::datasets::NamedCloud& model, const nnb::datasets::NamedCloud& query, double build_seconds,
+                 double median_seconds, const nnb::Neighbours& found, std::size_t index_bytes) {
+  nlohmann::json stats = {
+      {"adapter", info.name},
+      {"library", info.library},
+      {"library_version", info.version},
+      {"strategy", nnb::to_string(strategy)},
+      {"params", info.params},
+      {"search", opt.search},
+      {"k", opt.k},
+      {"max_dist_m", opt.max_dist_m},
+      {"model", model.name},
+      {"model_points", model.points.cols()},
+      {"query", query.name},
+      {"query_points", query.points.cols()},
+      {"build_seconds", build_seconds},
+      {"query_seconds", median_seconds},
+      {"repeat", opt.repeat},
+      {"found", found.queries_with_neighbours()},
+      {"neighbours", found.total()},
+      {"index_bytes", index_bytes},
+      {"build_type", nnb::cli::build_type()},
+  };
+  nnb::files::write_file_atomically(opt.stats, stats.dump(2) + "\n");
+}
+
 int run(const Options& opt) {
   if (opt.list) {
     nnb::cli::print_adapter_list(std::cout);
@@ -123,24 +167,13 @@ int run(const Options& opt) {
 
   check_outputs(opt, {model, query});
 
-  auto start = std::chrono::steady_clock::now();
+  const auto start = std::chrono::steady_clock::now();
   index->build(model.points);
   const double build_seconds = seconds_since(start);
   check_neighbour_budget(opt, kind, *index, query.points);
 
   nnb::Neighbours found;
-  std::vector<double> query_seconds;
-  for (int r = 0; r < opt.repeat; ++r) {
-    start = std::chrono::steady_clock::now();
-    switch (kind) {
-      case nnb::SearchKind::knn: index->knn(query.points, opt.k, found); break;
-      case nnb::SearchKind::radius: index->radius(query.points, opt.max_dist_m, found); break;
-      case nnb::SearchKind::ranged: index->ranged(query.points, opt.k, opt.max_dist_m, found, strategy); break;
-    }
-    query_seconds.push_back(seconds_since(start));
-  }
-  std::sort(query_seconds.begin(), query_seconds.end());
-  const double median_seconds = query_seconds[query_seconds.size() / 2];
+  const double median_seconds = timed_searches(opt, kind, strategy, *index, query.points, found);
 
   const std::string csv = to_csv(found);
   if (opt.out.empty() || opt.out == "-") {
@@ -149,29 +182,7 @@ int run(const Options& opt) {
     nnb::files::write_file_atomically(opt.out, csv);
   }
   if (!opt.stats.empty()) {
-    const auto& info = index->info();
-    nlohmann::json stats = {
-        {"adapter", info.name},
-        {"library", info.library},
-        {"library_version", info.version},
-        {"strategy", nnb::to_string(strategy)},
-        {"params", info.params},
-        {"search", opt.search},
-        {"k", opt.k},
-        {"max_dist_m", opt.max_dist_m},
-        {"model", model.name},
-        {"model_points", model.points.cols()},
-        {"query", query.name},
-        {"query_points", query.points.cols()},
-        {"build_seconds", build_seconds},
-        {"query_seconds", median_seconds},
-        {"repeat", opt.repeat},
-        {"found", found.queries_with_neighbours()},
-        {"neighbours", found.total()},
-        {"index_bytes", index->index_bytes()},
-        {"build_type", nnb::cli::build_type()},
-    };
-    nnb::files::write_file_atomically(opt.stats, stats.dump(2) + "\n");
+    write_stats(opt, index->info(), strategy, model, query, build_seconds, median_seconds, found, index->index_bytes());
   }
   std::cerr << "nns_query: " << opt.adapter << " " << opt.search << ": " << found.queries_with_neighbours() << " of "
             << found.n_queries() << " queries found a neighbour; build " << build_seconds << " s, query "

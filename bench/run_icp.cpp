@@ -424,77 +424,92 @@ int run_experiment(const ExperimentFlags& flags, const ds::DataOptions& data) {
   return 0;
 }
 
+// One ICP run from the command line (without --experiment).
+struct SingleRun {
+  std::string adapter, model_spec, query_spec, initial_file, out_path;
+  std::vector<std::string> param_words;
+  icp::Settings settings;
+  ds::DataOptions data;
+};
+
+void add_flags(CLI::App& app, ExperimentFlags& experiment, SingleRun& one) {
+  icp::Settings& s = one.settings;
+  s.max_dist.start_m = 0.25;
+  app.add_option("--experiment", experiment.name, "run an ICP experiment: a name in bench/experiments or a file");
+  app.add_flag("--resume", experiment.resume,
+               "with --experiment: finish the runs missing from --out (same configuration only)");
+  app.add_option("--shard", experiment.shard,
+                 "with --experiment: I/N: run only shard I (from 0) of N, balanced by expected cost");
+  app.add_flag("--plan", experiment.plan,
+               "with --experiment: print the runs, units and shards with their expected cost; run nothing");
+  app.add_flag("--json", experiment.plan_json, "with --plan: print the plan as JSON");
+  app.add_option("--buckets-from", experiment.buckets_from,
+                 "with --experiment: run each adapter at its fastest bucket in this ICP results file (a bucket "
+                 "sweep, Figure 2); 'none': every adapter at its default");
+  app.add_option("--adapter", one.adapter, "nearest-neighbour adapter (see nns_query --list)");
+  app.add_option("--param", one.param_words, "adapter parameter NAME=VALUE (repeatable)");
+  app.add_option("--model", one.model_spec, "model cloud: shape name, real pair name or file");
+  app.add_option("--query", one.query_spec, "query cloud: shape, real pair (its raw query scan + initial pose) or file");
+  app.add_option("--initial", one.initial_file, "initial pose: 4x4 row-major text file (default: the pair's, or identity)");
+  app.add_option("--max-dist", s.max_dist.start_m, "maximal correspondence distance in m (start of the schedule)")
+      ->capture_default_str();
+  app.add_option("--max-dist-factor", s.max_dist.factor, "multiply the maximal distance by this each iteration (1 = fixed)")
+      ->capture_default_str();
+  app.add_option("--min-max-dist", s.max_dist.floor_m, "the maximal distance never shrinks below this (m)");
+  app.add_option("--iterations", s.max_iterations, "iteration limit")->capture_default_str();
+  app.add_option("--min-step-m", s.min_translation_step_m, "converged when a step moves less than this (m) ...")
+      ->capture_default_str();
+  app.add_option("--min-step-rad", s.min_rotation_step_rad, "... and turns less than this (rad)")->capture_default_str();
+  app.add_option("--query-stride", s.query_stride, "use every N-th query point")->capture_default_str();
+  app.add_option("--data-dir", one.data.data_dir, nnb::cli::kDataDirHelp);
+  app.add_option("--points", one.data.synthetic_points, "points per synthetic set")->capture_default_str();
+  app.add_option("--seed", one.data.seed, "seed of the synthetic sets")->capture_default_str();
+  app.add_option("--out", one.out_path, "results file (JSON, Google Benchmark schema), written atomically");
+}
+
+int run_single(const SingleRun& one) {
+  if (one.adapter.empty() || one.model_spec.empty() || one.query_spec.empty() || one.out_path.empty()) {
+    throw InputError("give --adapter, --model, --query and --out (or --experiment NAME)");
+  }
+  const icp::Settings& s = one.settings;
+  if (s.query_stride < 1) throw InputError("--query-stride must be at least 1");
+  nnb::files::check_output_path(one.out_path, {one.model_spec, one.query_spec, one.initial_file});
+  const nnb::files::OutputLock lock(one.out_path);
+  Input in = load_input(one.model_spec, one.query_spec, one.data, s.query_stride);
+  if (!one.initial_file.empty()) {
+    in.initial = ds::load_pose(one.initial_file, ds::PoseFormat::matrix4_row_major);
+  }
+  const auto rec = run_one(in, one.adapter, nnb::cli::parse_params(one.param_words),
+                           options_of(s, icp::checked_rigid(in.initial, "the initial pose " + one.initial_file)),
+                           s.query_stride, 0);
+  print_summary(std::cout, rec, true);
+  nnb::files::write_file_atomically(
+      one.out_path, icp::results_json(std::vector<icp::Record>{rec}, nnb::cli::build_type(), run_context("", one.data)));
+  std::cout << "written " << one.out_path << "\n";
+  return rec.result.failure.empty() ? 0 : 3;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   nnb::bench::mark_run_start(argc, argv);
   return nnb::cli::run_reporting_errors("run_icp", [&]() -> int {
     CLI::App app{"Point-to-point ICP (Besl and McKay) with any adapter as the nearest-neighbour search."};
-    std::string adapter, model_spec, query_spec, initial_file, out_path;
     ExperimentFlags experiment;
-    std::vector<std::string> param_words;
-    icp::Settings s;
-    s.max_dist.start_m = 0.25;
-    ds::DataOptions data;
-    app.add_option("--experiment", experiment.name, "run an ICP experiment: a name in bench/experiments or a file");
-    app.add_flag("--resume", experiment.resume,
-                 "with --experiment: finish the runs missing from --out (same configuration only)");
-    app.add_option("--shard", experiment.shard,
-                   "with --experiment: I/N: run only shard I (from 0) of N, balanced by expected cost");
-    app.add_flag("--plan", experiment.plan,
-                 "with --experiment: print the runs, units and shards with their expected cost; run nothing");
-    app.add_flag("--json", experiment.plan_json, "with --plan: print the plan as JSON");
-    app.add_option("--buckets-from", experiment.buckets_from,
-                   "with --experiment: run each adapter at its fastest bucket in this ICP results file (a bucket "
-                   "sweep, Figure 2); 'none': every adapter at its default");
-    app.add_option("--adapter", adapter, "nearest-neighbour adapter (see nns_query --list)");
-    app.add_option("--param", param_words, "adapter parameter NAME=VALUE (repeatable)");
-    app.add_option("--model", model_spec, "model cloud: shape name, real pair name or file");
-    app.add_option("--query", query_spec, "query cloud: shape, real pair (its raw query scan + initial pose) or file");
-    app.add_option("--initial", initial_file, "initial pose: 4x4 row-major text file (default: the pair's, or identity)");
-    app.add_option("--max-dist", s.max_dist.start_m, "maximal correspondence distance in m (start of the schedule)")
-        ->capture_default_str();
-    app.add_option("--max-dist-factor", s.max_dist.factor, "multiply the maximal distance by this each iteration (1 = fixed)")
-        ->capture_default_str();
-    app.add_option("--min-max-dist", s.max_dist.floor_m, "the maximal distance never shrinks below this (m)");
-    app.add_option("--iterations", s.max_iterations, "iteration limit")->capture_default_str();
-    app.add_option("--min-step-m", s.min_translation_step_m, "converged when a step moves less than this (m) ...")
-        ->capture_default_str();
-    app.add_option("--min-step-rad", s.min_rotation_step_rad, "... and turns less than this (rad)")->capture_default_str();
-    app.add_option("--query-stride", s.query_stride, "use every N-th query point")->capture_default_str();
-    app.add_option("--data-dir", data.data_dir, nnb::cli::kDataDirHelp);
-    app.add_option("--points", data.synthetic_points, "points per synthetic set")->capture_default_str();
-    app.add_option("--seed", data.seed, "seed of the synthetic sets")->capture_default_str();
-    app.add_option("--out", out_path, "results file (JSON, Google Benchmark schema), written atomically");
+    SingleRun one;
+    add_flags(app, experiment, one);
     if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_icp")) return *code;
     nnb::cli::warn_if_not_release(std::cerr);
     if (!experiment.name.empty()) {
-      if (!adapter.empty() || !model_spec.empty() || !query_spec.empty()) {
+      if (!one.adapter.empty() || !one.model_spec.empty() || !one.query_spec.empty()) {
         throw InputError("--experiment takes its adapters and pairs from the file: drop --adapter/--model/--query");
       }
-      experiment.out = out_path;
-      return run_experiment(experiment, data);
+      experiment.out = one.out_path;
+      return run_experiment(experiment, one.data);
     }
     if (experiment.resume || experiment.plan || !experiment.shard.empty()) {
       throw InputError("--resume, --shard and --plan run an experiment: give --experiment NAME");
     }
-    if (adapter.empty() || model_spec.empty() || query_spec.empty() || out_path.empty()) {
-      throw InputError("give --adapter, --model, --query and --out (or --experiment NAME)");
-    }
-    if (s.query_stride < 1) throw InputError("--query-stride must be at least 1");
-    nnb::files::check_output_path(out_path, {model_spec, query_spec, initial_file});
-    const nnb::files::OutputLock lock(out_path);
-    Input in = load_input(model_spec, query_spec, data, s.query_stride);
-    if (!initial_file.empty()) {
-      in.initial = ds::load_pose(initial_file, ds::PoseFormat::matrix4_row_major);
-    }
-    const auto rec = run_one(in, adapter, nnb::cli::parse_params(param_words),
-                             options_of(s, icp::checked_rigid(in.initial, "the initial pose " + initial_file)),
-                             s.query_stride, 0);
-    print_summary(std::cout, rec, true);
-    nnb::files::write_file_atomically(
-        out_path, icp::results_json(std::vector<icp::Record>{rec}, nnb::cli::build_type(), run_context("", data)));
-    std::cout << "written " << out_path << "\n";
-    return rec.result.failure.empty() ? 0 : 3;
+    return run_single(one);
   });
 }
