@@ -76,20 +76,81 @@ unsigned long long min_item_bytes(const Element& element, Encoding encoding) {
   return encoding == Encoding::ascii ? std::max<unsigned long long>(bytes, 1) : bytes;
 }
 
-}  // namespace
+struct Header {
+  Encoding encoding = Encoding::ascii;
+  std::vector<Element> elements;
+  std::size_t vertex_element = 0;  // the index of "vertex" in elements
+  int axis_of[3] = {-1, -1, -1};   // the vertex properties holding x, y and z
+};
 
-RawPoints read_ply(const std::string& path, const std::string& bytes) {
-  auto wrong = [&](const std::string& why) { return InputError("wrong PLY header in " + path + ": " + why); };
-  if (bytes.compare(0, 4, "ply\n") != 0 && bytes.compare(0, 5, "ply\r\n") != 0) throw wrong("does not start with 'ply'");
+InputError wrong(const std::string& path, const std::string& why) {
+  return InputError("wrong PLY header in " + path + ": " + why);
+}
 
-  // Header.
-  std::size_t pos = 0;
+Element parse_element(const std::string& path, const std::string& text, std::istringstream& words) {
+  Element e;
+  std::string count, rest;
+  words >> e.name >> count;
+  const auto r = std::from_chars(count.data(), count.data() + count.size(), e.count);
+  if (!words || r.ec != std::errc() || r.ptr != count.data() + count.size() || (words >> rest)) {
+    throw wrong(path, "bad line '" + text + "'");
+  }
+  return e;
+}
+
+Property parse_property(const std::string& path, const std::string& text, std::istringstream& words) {
+  Property p;
+  std::string type;
+  words >> type;
+  if (type == "list") {
+    std::string count_type, item_type;
+    words >> count_type >> item_type >> p.name;
+    p.is_list = true;
+    if (!scalar_type(count_type, p.count_size, p.count_kind) || !scalar_type(item_type, p.size, p.kind)) {
+      throw wrong(path, "bad list property '" + text + "'");
+    }
+  } else {
+    words >> p.name;
+    if (!scalar_type(type, p.size, p.kind)) throw wrong(path, "unknown property type in '" + text + "'");
+  }
+  if (!words) throw wrong(path, "bad property line '" + text + "'");
+  return p;
+}
+
+Encoding parse_format(const std::string& path, std::istringstream& words) {
+  std::string enc;
+  words >> enc;
+  if (enc == "ascii") return Encoding::ascii;
+  if (enc == "binary_little_endian") return Encoding::binary_le;
+  if (enc == "binary_big_endian") return Encoding::binary_be;
+  throw wrong(path, "unknown format '" + enc + "'");
+}
+
+// The vertex element and its x, y, z properties; InputError when there are none.
+void find_vertices(const std::string& path, Header& h) {
+  h.vertex_element = h.elements.size();
+  for (std::size_t i = 0; i < h.elements.size(); ++i) {
+    if (h.elements[i].name == "vertex") { h.vertex_element = i; break; }
+  }
+  if (h.vertex_element == h.elements.size()) throw wrong(path, "no vertex element");
+  const Element& vertex = h.elements[h.vertex_element];
+  for (std::size_t i = 0; i < vertex.properties.size(); ++i) {
+    const Property& p = vertex.properties[i];
+    for (int a = 0; a < 3; ++a) {
+      if (p.name == std::string(1, static_cast<char>('x' + a)) && !p.is_list) h.axis_of[a] = static_cast<int>(i);
+    }
+  }
+  if (h.axis_of[0] < 0 || h.axis_of[1] < 0 || h.axis_of[2] < 0) throw wrong(path, "vertex has no x, y and z properties");
+}
+
+// The header up to end_header; pos is left at the first byte after it.
+Header parse_header(const std::string& path, const std::string& bytes, std::size_t& pos) {
+  if (bytes.compare(0, 4, "ply\n") != 0 && bytes.compare(0, 5, "ply\r\n") != 0) throw wrong(path, "does not start with 'ply'");
   const char* line = nullptr;
   const char* end = nullptr;
   next_line(bytes, pos, line, end);
-  Encoding encoding = Encoding::ascii;
+  Header h;
   bool have_format = false, have_end = false;
-  std::vector<Element> elements;
   while (next_line(bytes, pos, line, end)) {
     std::string text(line, end);
     if (!text.empty() && text.back() == '\r') text.pop_back();
@@ -99,113 +160,70 @@ RawPoints read_ply(const std::string& path, const std::string& bytes) {
     if (key == "end_header") { have_end = true; break; }
     if (key == "comment" || key == "obj_info" || key.empty()) continue;
     if (key == "format") {
-      std::string enc;
-      words >> enc;
-      if (enc == "ascii") encoding = Encoding::ascii;
-      else if (enc == "binary_little_endian") encoding = Encoding::binary_le;
-      else if (enc == "binary_big_endian") encoding = Encoding::binary_be;
-      else throw wrong("unknown format '" + enc + "'");
+      h.encoding = parse_format(path, words);
       have_format = true;
     } else if (key == "element") {
-      Element e;
-      std::string count, rest;
-      words >> e.name >> count;
-      const auto r = std::from_chars(count.data(), count.data() + count.size(), e.count);
-      if (!words || r.ec != std::errc() || r.ptr != count.data() + count.size() || (words >> rest)) {
-        throw wrong("bad line '" + text + "'");
-      }
-      elements.push_back(e);
+      h.elements.push_back(parse_element(path, text, words));
     } else if (key == "property") {
-      if (elements.empty()) throw wrong("property before any element");
-      Property p;
-      std::string type;
-      words >> type;
-      if (type == "list") {
-        std::string count_type, item_type;
-        words >> count_type >> item_type >> p.name;
-        p.is_list = true;
-        if (!scalar_type(count_type, p.count_size, p.count_kind) || !scalar_type(item_type, p.size, p.kind)) {
-          throw wrong("bad list property '" + text + "'");
-        }
-      } else {
-        words >> p.name;
-        if (!scalar_type(type, p.size, p.kind)) throw wrong("unknown property type in '" + text + "'");
-      }
-      if (!words) throw wrong("bad property line '" + text + "'");
-      elements.back().properties.push_back(p);
+      if (h.elements.empty()) throw wrong(path, "property before any element");
+      h.elements.back().properties.push_back(parse_property(path, text, words));
     } else {
-      throw wrong("unknown header line '" + text + "'");
+      throw wrong(path, "unknown header line '" + text + "'");
     }
   }
   if (!have_end) throw InputError("truncated PLY header in " + path + ": no end_header");
-  if (!have_format) throw wrong("no format line");
+  if (!have_format) throw wrong(path, "no format line");
+  find_vertices(path, h);
+  return h;
+}
 
-  std::size_t vertex_element = elements.size();
-  for (std::size_t i = 0; i < elements.size(); ++i) {
-    if (elements[i].name == "vertex") { vertex_element = i; break; }
-  }
-  if (vertex_element == elements.size()) throw wrong("no vertex element");
-  const Element& vertex = elements[vertex_element];
-  int axis_of[3] = {-1, -1, -1};
-  for (std::size_t i = 0; i < vertex.properties.size(); ++i) {
-    const Property& p = vertex.properties[i];
+// One ascii vertex line into raw.xyz[3 i ...].
+void read_ascii_vertex(const std::string& path, const Header& h, const char* line, const char* end, std::size_t i,
+                       RawPoints& raw) {
+  const Element& vertex = h.elements[h.vertex_element];
+  const char* p = line;
+  for (std::size_t k = 0; k < vertex.properties.size(); ++k) {
+    const Property& prop = vertex.properties[k];
+    double value = 0;
+    std::size_t n_values = 1;
+    if (prop.is_list) {
+      if (!parse_number(p, end, value) || !(value >= 0 && value < 1e9)) n_values = static_cast<std::size_t>(-1);
+      else n_values = static_cast<std::size_t>(value);
+    }
+    bool ok = n_values != static_cast<std::size_t>(-1);
+    for (std::size_t v = 0; ok && v < n_values; ++v) ok = parse_number(p, end, value);
+    if (!ok) {
+      throw InputError("malformed number in " + path + " at vertex " + std::to_string(i) + " ('" +
+                       std::string(line, std::min<std::size_t>(end - line, 60)) + "')");
+    }
     for (int a = 0; a < 3; ++a) {
-      if (p.name == std::string(1, static_cast<char>('x' + a)) && !p.is_list) axis_of[a] = static_cast<int>(i);
+      if (h.axis_of[a] == static_cast<int>(k)) raw.xyz[3 * i + a] = value;
     }
   }
-  if (axis_of[0] < 0 || axis_of[1] < 0 || axis_of[2] < 0) throw wrong("vertex has no x, y and z properties");
-
-  // Every count is checked against the bytes after the header before anything is allocated for it.
-  for (std::size_t e = 0; e <= vertex_element; ++e) {
-    const std::string what = "PLY " + elements[e].name + " items";
-    const std::size_t slack = encoding == Encoding::ascii ? 1 : 0;  // the last line may lack its '\n'
-    require_room(path, what.c_str(), elements[e].count, min_item_bytes(elements[e], encoding),
-                 bytes.size() - pos + slack);
+  while (p < end && (*p == ' ' || *p == '\t' || *p == '\r')) ++p;
+  if (p != end) {
+    throw InputError("malformed number in " + path + " at vertex " + std::to_string(i) + ": more values than " +
+                     "the header's properties ('" + std::string(line, std::min<std::size_t>(end - line, 60)) + "')");
   }
-  RawPoints raw;
-  raw.xyz.resize(3 * vertex.count);
+}
 
-  if (encoding == Encoding::ascii) {
-    // One line per element item; elements before the vertices are skipped line by line.
-    for (std::size_t e = 0; e <= vertex_element; ++e) {
-      const bool is_vertex = e == vertex_element;
-      for (std::size_t i = 0; i < elements[e].count; ++i) {
-        if (!next_line(bytes, pos, line, end)) {
-          throw InputError("truncated PLY file " + path + ": " + elements[e].name + " " + std::to_string(i) +
-                           " of " + std::to_string(elements[e].count) + " missing");
-        }
-        if (!is_vertex) continue;
-        const char* p = line;
-        std::size_t k = 0;
-        for (; k < vertex.properties.size(); ++k) {
-          const Property& prop = vertex.properties[k];
-          double value = 0;
-          std::size_t n_values = 1;
-          if (prop.is_list) {
-            if (!parse_number(p, end, value) || !(value >= 0 && value < 1e9)) n_values = static_cast<std::size_t>(-1);
-            else n_values = static_cast<std::size_t>(value);
-          }
-          bool ok = n_values != static_cast<std::size_t>(-1);
-          for (std::size_t v = 0; ok && v < n_values; ++v) ok = parse_number(p, end, value);
-          if (!ok) {
-            throw InputError("malformed number in " + path + " at vertex " + std::to_string(i) + " ('" +
-                             std::string(line, std::min<std::size_t>(end - line, 60)) + "')");
-          }
-          for (int a = 0; a < 3; ++a) {
-            if (axis_of[a] == static_cast<int>(k)) raw.xyz[3 * i + a] = value;
-          }
-        }
-        while (p < end && (*p == ' ' || *p == '\t' || *p == '\r')) ++p;
-        if (p != end) {
-          throw InputError("malformed number in " + path + " at vertex " + std::to_string(i) + ": more values than " +
-                           "the header's properties ('" + std::string(line, std::min<std::size_t>(end - line, 60)) + "')");
-        }
+// One line per element item; elements before the vertices are skipped line by line.
+void read_ascii(const std::string& path, const std::string& bytes, std::size_t pos, const Header& h, RawPoints& raw) {
+  const char* line = nullptr;
+  const char* end = nullptr;
+  for (std::size_t e = 0; e <= h.vertex_element; ++e) {
+    for (std::size_t i = 0; i < h.elements[e].count; ++i) {
+      if (!next_line(bytes, pos, line, end)) {
+        throw InputError("truncated PLY file " + path + ": " + h.elements[e].name + " " + std::to_string(i) +
+                         " of " + std::to_string(h.elements[e].count) + " missing");
       }
+      if (e == h.vertex_element) read_ascii_vertex(path, h, line, end, i, raw);
     }
-    return raw;
   }
+}
 
-  const bool swap = (encoding == Encoding::binary_le) != host_is_little();
+void read_binary(const std::string& path, const std::string& bytes, std::size_t pos, const Header& h, RawPoints& raw) {
+  const bool swap = (h.encoding == Encoding::binary_le) != host_is_little();
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
   std::size_t at = pos;
   auto need = [&](std::size_t n, const Element& e, std::size_t i) {
@@ -214,9 +232,9 @@ RawPoints read_ply(const std::string& path, const std::string& bytes) {
                        " of " + std::to_string(e.count));
     }
   };
-  for (std::size_t e = 0; e <= vertex_element; ++e) {
-    const Element& el = elements[e];
-    const bool is_vertex = e == vertex_element;
+  for (std::size_t e = 0; e <= h.vertex_element; ++e) {
+    const Element& el = h.elements[e];
+    const bool is_vertex = e == h.vertex_element;
     if (el.properties.empty()) continue;  // no bytes to read, whatever the count
     for (std::size_t i = 0; i < el.count; ++i) {
       for (std::size_t k = 0; k < el.properties.size(); ++k) {
@@ -233,13 +251,31 @@ RawPoints read_ply(const std::string& path, const std::string& bytes) {
         if (is_vertex && !prop.is_list) {
           const double value = decode(data + at, prop.size, prop.kind, swap);
           for (int a = 0; a < 3; ++a) {
-            if (axis_of[a] == static_cast<int>(k)) raw.xyz[3 * i + a] = value;
+            if (h.axis_of[a] == static_cast<int>(k)) raw.xyz[3 * i + a] = value;
           }
         }
         at += n_values * prop.size;
       }
     }
   }
+}
+
+}  // namespace
+
+RawPoints read_ply(const std::string& path, const std::string& bytes) {
+  std::size_t pos = 0;
+  const Header h = parse_header(path, bytes, pos);
+  // Every count is checked against the bytes after the header before anything is allocated for it.
+  for (std::size_t e = 0; e <= h.vertex_element; ++e) {
+    const std::string what = "PLY " + h.elements[e].name + " items";
+    const std::size_t slack = h.encoding == Encoding::ascii ? 1 : 0;  // the last line may lack its '\n'
+    require_room(path, what.c_str(), h.elements[e].count, min_item_bytes(h.elements[e], h.encoding),
+                 bytes.size() - pos + slack);
+  }
+  RawPoints raw;
+  raw.xyz.resize(3 * h.elements[h.vertex_element].count);
+  if (h.encoding == Encoding::ascii) read_ascii(path, bytes, pos, h, raw);
+  else read_binary(path, bytes, pos, h, raw);
   return raw;
 }
 
