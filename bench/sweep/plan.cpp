@@ -114,13 +114,6 @@ SweepPlan::SweepPlan(const Experiment& e, const std::vector<PlannedAdapter>& ada
   check_unique(cell_names());
 }
 
-const PlanUnit* SweepPlan::unit(const std::string& model, const std::string& adapter) const {
-  for (const auto& u : units_) {
-    if (u.model == model && u.adapter->name == adapter) return &u;
-  }
-  return nullptr;
-}
-
 std::vector<std::string> SweepPlan::cell_names(const UnitFilter& in_shard) const {
   std::vector<std::string> names;
   for (const auto& unit : units_) {

@@ -61,8 +61,6 @@ class SweepPlan {
   /// InputError when two cells would share a name. Keeps pointers into experiment and adapters.
   SweepPlan(const Experiment& experiment, const std::vector<PlannedAdapter>& adapters);
   const std::vector<PlanUnit>& units() const { return units_; }
-  /// The unit of that model and adapter; nullptr when the plan has none.
-  const PlanUnit* unit(const std::string& model, const std::string& adapter) const;
   /// Every record name of the units in_shard takes (all when empty), in run order.
   std::vector<std::string> cell_names(const UnitFilter& in_shard = {}) const;
 
