@@ -100,6 +100,55 @@ TEST(RigidFit, RecoversAKnownTransformExactly) {
   EXPECT_LT((fit - truth).cwiseAbs().maxCoeff(), 1e-12) << describe(fit) << "\nvs\n" << describe(truth);
 }
 
+// The sums are taken relative to the first pair: a cloud in geocentric coordinates (10,000 km from the
+// origin) fits as well as one at it (raw sums of products would lose about twelve digits to cancellation).
+TEST(RigidFit, FarFromTheOriginLosesNoDigits) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> coord(-10.0, 10.0);
+  Cloud source(3, 200);
+  for (Eigen::Index i = 0; i < source.cols(); ++i) source.col(i) << 1e7 + coord(rng), -1e7 + coord(rng), coord(rng);
+  const Eigen::Matrix4d step = random_rigid(rng, 0.05, 0.5);
+  Eigen::Matrix4d fit;
+  ASSERT_TRUE(icp::estimate_rigid_transform(source, apply(step, source), fit));
+  const Cloud residual = apply(fit, source) - apply(step, source);
+  EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-7) << describe(fit) << "\nvs\n" << describe(step);
+}
+
+// ICP's one-pass route (the pairs of a search, the moved queries and their fit) agrees with the fit of
+// the same pairs as dense columns, and skips the queries without a neighbour.
+TEST(RigidFit, PairsOfASearchFitAsTheirColumnsDo) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> coord(-1.0, 1.0);
+  Cloud query(3, 40);
+  for (Eigen::Index i = 0; i < query.cols(); ++i) query.col(i) << coord(rng), coord(rng), coord(rng);
+  const Eigen::Matrix4d truth = random_rigid(rng, 0.3, 0.2);
+  const Cloud model = apply(truth, query);
+  nnb::Neighbours pairs;
+  Cloud source(3, 0), target(3, 0);
+  for (Eigen::Index q = 0; q < query.cols(); ++q) {
+    if (q % 3 != 0) {  // every third query found nothing
+      pairs.push(static_cast<nnb::PointIndex>(q), (model.col(q) - query.col(q)).squaredNorm());
+      source.conservativeResize(3, source.cols() + 1);
+      target.conservativeResize(3, target.cols() + 1);
+      source.col(source.cols() - 1) = query.col(q);
+      target.col(target.cols() - 1) = model.col(q);
+    }
+    pairs.end_query();
+  }
+  double sum_sq_m2 = 0.0;
+  const icp::PairMoments m = icp::pair_moments(pairs, query, model, sum_sq_m2);
+  EXPECT_EQ(m.n, source.cols());
+  EXPECT_NEAR(sum_sq_m2, (target - source).colwise().squaredNorm().sum(), 1e-12);
+  Eigen::Matrix4d from_pairs, from_columns;
+  ASSERT_TRUE(icp::rigid_transform_from(m, from_pairs));
+  ASSERT_TRUE(icp::estimate_rigid_transform(source, target, from_columns));
+  EXPECT_LT((from_pairs - from_columns).cwiseAbs().maxCoeff(), 1e-12);
+  Cloud moved;
+  EXPECT_NEAR(icp::move_queries(query, from_pairs, moved, &pairs, model), 0.0, 1e-20);
+  EXPECT_LT((moved - apply(from_pairs, query)).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(icp::move_queries(query, from_pairs, moved, nullptr, model), 0.0);
+}
+
 TEST(RigidFit, PlanarPairsStillGiveAProperRotation) {
   Cloud source(3, 4);
   source << 0, 1, 0, 1,  //

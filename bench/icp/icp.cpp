@@ -23,12 +23,6 @@ std::string str(double value) {
   return out.str();
 }
 
-Cloud transformed(const Cloud& points, const Eigen::Matrix4d& pose) {
-  Cloud out = pose.topLeftCorner<3, 3>() * points;
-  out.colwise() += pose.topRightCorner<3, 1>();
-  return out;
-}
-
 // Nearest rotation to m in the Frobenius norm (polar decomposition through the SVD).
 Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& m) {
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -86,12 +80,25 @@ void validate(const Options& options) {
   checked_rigid(options.initial_pose, "ICP: the initial pose");
 }
 
-bool estimate_rigid_transform(const Cloud& source, const Cloud& target, Eigen::Matrix4d& out) {
-  const Eigen::Index n = source.cols();
-  if (n < 3 || target.cols() != n) return false;
-  const Eigen::Vector3d source_mean = source.rowwise().mean();
-  const Eigen::Vector3d target_mean = target.rowwise().mean();
-  const Eigen::Matrix3d cross = (source.colwise() - source_mean) * (target.colwise() - target_mean).transpose();
+void PairMoments::add(const Eigen::Vector3d& source, const Eigen::Vector3d& target) {
+  if (n == 0) {
+    source_shift = source;
+    target_shift = target;
+  }
+  const Eigen::Vector3d s = source - source_shift;
+  const Eigen::Vector3d t = target - target_shift;
+  ++n;
+  source_sum += s;
+  target_sum += t;
+  cross += s * t.transpose();
+}
+
+bool rigid_transform_from(const PairMoments& m, Eigen::Matrix4d& out) {
+  if (m.n < 3) return false;
+  const double count = static_cast<double>(m.n);
+  const Eigen::Vector3d source_mean = m.source_sum / count;
+  const Eigen::Vector3d target_mean = m.target_sum / count;
+  const Eigen::Matrix3d cross = m.cross - count * source_mean * target_mean.transpose();
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::Vector3d sv = svd.singularValues();
   // Collinear (or coincident) pairs leave a rotation about their line free: no unique answer.
@@ -102,10 +109,82 @@ bool estimate_rigid_transform(const Cloud& source, const Cloud& target, Eigen::M
   const Eigen::Matrix3d rotation = svd.matrixV() * d * svd.matrixU().transpose();
   Eigen::Matrix4d result = Eigen::Matrix4d::Identity();
   result.topLeftCorner<3, 3>() = rotation;
-  result.topRightCorner<3, 1>() = target_mean - rotation * source_mean;
+  result.topRightCorner<3, 1>() =
+      (m.target_shift + target_mean) - rotation * (m.source_shift + source_mean);
   if (!result.allFinite()) return false;
   out = result;
   return true;
+}
+
+bool estimate_rigid_transform(const Cloud& source, const Cloud& target, Eigen::Matrix4d& out) {
+  if (target.cols() != source.cols()) return false;
+  PairMoments m;
+  for (Eigen::Index i = 0; i < source.cols(); ++i) m.add(source.col(i), target.col(i));
+  return rigid_transform_from(m, out);
+}
+
+PairMoments pair_moments(const Neighbours& pairs, const Cloud& query, const Cloud& model, double& sum_sq_m2) {
+  PairMoments m;
+  std::size_t q = 0;
+  while (q < pairs.n_queries() && pairs.count(q) == 0) ++q;
+  if (q == pairs.n_queries()) return m;
+  m.source_shift = query.col(static_cast<Eigen::Index>(q));
+  m.target_shift = model.col(static_cast<Eigen::Index>(pairs.indices[pairs.offsets[q]]));
+  // Plain scalars in one loop: the compiler keeps all fifteen sums in registers.
+  double s_sum[3] = {0, 0, 0}, t_sum[3] = {0, 0, 0}, cross[3][3] = {};
+  double sq_m2 = 0.0;
+  Eigen::Index n = 0;
+  const double* const qp = query.data();
+  const double* const mp = model.data();
+  for (; q < pairs.n_queries(); ++q) {
+    const std::size_t at = pairs.offsets[q];
+    if (pairs.offsets[q + 1] == at) continue;
+    const double* const a = qp + 3 * q;
+    const double* const b = mp + 3 * static_cast<std::size_t>(pairs.indices[at]);
+    const double s[3] = {a[0] - m.source_shift[0], a[1] - m.source_shift[1], a[2] - m.source_shift[2]};
+    const double t[3] = {b[0] - m.target_shift[0], b[1] - m.target_shift[1], b[2] - m.target_shift[2]};
+    for (int i = 0; i < 3; ++i) {
+      s_sum[i] += s[i];
+      t_sum[i] += t[i];
+      for (int j = 0; j < 3; ++j) cross[i][j] += s[i] * t[j];
+    }
+    sq_m2 += pairs.sq_dists[at];
+    ++n;
+  }
+  m.n = n;
+  for (int i = 0; i < 3; ++i) {
+    m.source_sum[i] = s_sum[i];
+    m.target_sum[i] = t_sum[i];
+    for (int j = 0; j < 3; ++j) m.cross(i, j) = cross[i][j];
+  }
+  sum_sq_m2 += sq_m2;
+  return m;
+}
+
+double move_queries(const Cloud& query, const Eigen::Matrix4d& pose, Cloud& moved, const Neighbours* pairs,
+                    const Cloud& model) {
+  double r[3][4];
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 4; ++j) r[i][j] = pose(i, j);
+  }
+  moved.resize(3, query.cols());
+  const double* const in = query.data();
+  double* const out = moved.data();
+  const std::size_t n = static_cast<std::size_t>(query.cols());
+  const double* const mp = model.data();
+  double sum_sq_m2 = 0.0;
+  for (std::size_t q = 0; q < n; ++q) {
+    const double* const p = in + 3 * q;
+    double* const o = out + 3 * q;
+    for (int i = 0; i < 3; ++i) o[i] = r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + r[i][3];
+    if (pairs == nullptr) continue;
+    const std::size_t at = pairs->offsets[q];
+    if (pairs->offsets[q + 1] == at) continue;
+    const double* const b = mp + 3 * static_cast<std::size_t>(pairs->indices[at]);
+    const double d[3] = {o[0] - b[0], o[1] - b[1], o[2] - b[2]};
+    sum_sq_m2 += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+  }
+  return sum_sq_m2;
 }
 
 double rotation_angle_rad(const Eigen::Matrix4d& transform) {
@@ -116,24 +195,6 @@ double rotation_angle_rad(const Eigen::Matrix4d& transform) {
 }
 
 namespace {
-
-// The query points with a neighbour (source) and their neighbours (target), as columns; returns the
-// number of pairs and adds their squared distances to sum_sq_m2.
-Eigen::Index pair_up(const Neighbours& pairs, const Cloud& query, const Cloud& model, std::size_t correspondences,
-                     Cloud& source, Cloud& target, double& sum_sq_m2) {
-  source.resize(3, static_cast<Eigen::Index>(correspondences));
-  target.resize(3, static_cast<Eigen::Index>(correspondences));
-  Eigen::Index n = 0;
-  for (std::size_t q = 0; q < pairs.n_queries(); ++q) {
-    if (pairs.count(q) == 0) continue;
-    const std::size_t at = pairs.offsets[q];
-    source.col(n) = query.col(static_cast<Eigen::Index>(q));
-    target.col(n) = model.col(static_cast<Eigen::Index>(pairs.indices[at]));
-    sum_sq_m2 += pairs.sq_dists[at];
-    ++n;
-  }
-  return n;
-}
 
 void check_inputs(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
   validate(options);
@@ -146,11 +207,11 @@ void check_inputs(const SearchIndex& index, const Cloud& model, const Cloud& que
   }
 }
 
-// One iteration after the search: the pairs, the rigid transform that best maps them, the step it makes.
-// Sets result.failure (and returns false) when there are too few pairs or they are degenerate.
-// source and target are scratch, kept by the caller so that iterations reuse their memory.
+// One iteration after the search: the rigid transform that best maps the pairs, the step it makes, and
+// the query points moved for the next search (moved). Sets result.failure (and returns false) when
+// there are too few pairs or they are degenerate.
 bool estimate_step(const Neighbours& pairs, const Cloud& query, const Cloud& model, const Options& options, int i,
-                   Cloud& source, Cloud& target, Iteration& it, Result& result) {
+                   Cloud& moved, Iteration& it, Result& result) {
   it.correspondences = pairs.queries_with_neighbours();
   if (it.correspondences < options.min_correspondences) {
     result.failure = "too few correspondences (" + std::to_string(it.correspondences) + " within " +
@@ -158,18 +219,18 @@ bool estimate_step(const Neighbours& pairs, const Cloud& query, const Cloud& mod
     return false;
   }
   double sum_sq_m2 = 0.0;
-  const Eigen::Index n = pair_up(pairs, query, model, it.correspondences, source, target, sum_sq_m2);
-  it.rms_m = std::sqrt(sum_sq_m2 / static_cast<double>(n));
+  const PairMoments m = pair_moments(pairs, query, model, sum_sq_m2);
+  const double n = static_cast<double>(m.n);
+  it.rms_m = std::sqrt(sum_sq_m2 / n);
   Eigen::Matrix4d next;
-  if (!estimate_rigid_transform(source, target, next)) {
+  if (!rigid_transform_from(m, next)) {
     result.failure = "degenerate correspondences (collinear or coincident) at iteration " + std::to_string(i + 1);
     return false;
   }
   const Eigen::Matrix4d step = next * result.pose.inverse();
   it.translation_step_m = step.topRightCorner<3, 1>().norm();
   it.rotation_step_rad = rotation_angle_rad(step);
-  const Cloud residual = transformed(source, next) - target;
-  it.rms_after_m = std::sqrt(residual.colwise().squaredNorm().sum() / static_cast<double>(n));
+  it.rms_after_m = std::sqrt(move_queries(query, next, moved, &pairs, model) / n);
   result.pose = next;
   return true;
 }
@@ -181,21 +242,20 @@ Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Clo
   Result result;
   result.pose = checked_rigid(options.initial_pose, "ICP: the initial pose");
   Neighbours pairs;
-  Cloud source, target;
+  Cloud moved;
+  auto t0 = Clock::now();
+  move_queries(query, result.pose, moved, nullptr, model);
+  result.estimate_seconds += seconds_since(t0);
   for (int i = 0; i < options.max_iterations; ++i) {
     Iteration it;
     it.max_dist_m = options.max_dist.at(i);
-
-    auto t0 = Clock::now();
-    const Cloud moved = transformed(query, result.pose);
-    result.estimate_seconds += seconds_since(t0);
 
     t0 = Clock::now();
     index.ranged(moved, 1, it.max_dist_m, pairs);
     result.nns_seconds += seconds_since(t0);
 
     t0 = Clock::now();
-    const bool stepped = estimate_step(pairs, query, model, options, i, source, target, it, result);
+    const bool stepped = estimate_step(pairs, query, model, options, i, moved, it, result);
     result.estimate_seconds += seconds_since(t0);
     if (!stepped) break;
 

@@ -69,9 +69,30 @@ void validate(const Options& options);
 /// |R^T R - I| <= 1e-4 and det(R) > 0; returns m with its rotation projected exactly onto SO(3).
 Eigen::Matrix4d checked_rigid(const Eigen::Matrix4d& m, const std::string& what);
 
-/// The rigid transform minimising sum |T * source_i - target_i|^2 over paired columns (least squares,
-/// no scale); returns false (and leaves out untouched) when fewer than 3 pairs or the pairs are degenerate.
+/// What the closed-form fit needs of paired points, gathered in one pass: sums of both sides and of their
+/// products, taken relative to the first pair (so that a cloud far from the origin loses no digits).
+struct PairMoments {
+  Eigen::Index n = 0;
+  Eigen::Vector3d source_shift = Eigen::Vector3d::Zero(), target_shift = Eigen::Vector3d::Zero();  ///< metres
+  Eigen::Vector3d source_sum = Eigen::Vector3d::Zero(), target_sum = Eigen::Vector3d::Zero();      ///< metres
+  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();  ///< sum of (source - shift)(target - shift)^T, m^2
+  void add(const Eigen::Vector3d& source, const Eigen::Vector3d& target);
+};
+
+/// The rigid transform minimising sum |T * source_i - target_i|^2 over the pairs (least squares, no
+/// scale); returns false (and leaves out untouched) when fewer than 3 pairs or the pairs are degenerate.
+bool rigid_transform_from(const PairMoments& moments, Eigen::Matrix4d& out);
+/// The same over paired columns of source and target.
 bool estimate_rigid_transform(const Cloud& source, const Cloud& target, Eigen::Matrix4d& out);
+
+/// The moments of the pairs a ranged 1-NN search found (query point q with its first neighbour); adds
+/// their squared distances to sum_sq_m2.
+PairMoments pair_moments(const Neighbours& pairs, const Cloud& query, const Cloud& model, double& sum_sq_m2);
+/// Writes pose * query into moved (resized); with pairs, returns the sum of squared distances (m^2) of
+/// the moved paired points to their neighbours, else 0. One pass: ICP moves the points and measures
+/// the fit of the new pose together.
+double move_queries(const Cloud& query, const Eigen::Matrix4d& pose, Cloud& moved, const Neighbours* pairs,
+                    const Cloud& model);
 
 /// Rotation angle of a rigid transform's rotation block, in radians.
 double rotation_angle_rad(const Eigen::Matrix4d& transform);

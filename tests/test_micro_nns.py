@@ -1,0 +1,43 @@
+#!/usr/bin/env python3
+"""micro_nns on part of its benchmarks: every target it ran is judged PASS or MISS, the rest "not run".
+
+Usage: test_micro_nns.py MICRO_NNS. Never a timing: the verdicts themselves may go either way."""
+import re
+import subprocess
+import sys
+
+FILTER = ("^(IcpStep/fig3|Build/fig3/(ours_kdtree|nanoflann_kdtree)"
+          "|Ranged1NN/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)/0.10)$")
+VERDICT = r"(PASS|MISS)"
+
+
+def main(micro_nns):
+    proc = subprocess.run([micro_nns, "--benchmark_min_time=0.01", f"--benchmark_filter={FILTER}"],
+                          capture_output=True, text=True, timeout=280)
+    out = proc.stdout
+    failures = []
+    if proc.returncode != 0:
+        failures.append(f"exit {proc.returncode}: {proc.stderr[-500:]}")
+    # The ranged row: both targets judged (2x the faster nanoflann; under 100 ns at 0.1 m on fig3).
+    if not re.search(rf"^fig3 +0\.10 \|.*x >= 2 {VERDICT} +\| [0-9.]+ ns < 100 {VERDICT}$", out, re.M):
+        failures.append("the fig3 0.10 m row does not judge both ranged targets")
+    if not re.search(rf"^fig3 +0\.02 \|.*\| not run +\| not run$", out, re.M):
+        failures.append("a distance that did not run is not marked 'not run'")
+    if not re.search(rf"^fig3 +[0-9.]+ ns < 10 {VERDICT}$", out, re.M):
+        failures.append("the ICP step on fig3 is not judged")
+    if not re.search(rf"^fig3 +\|.*x >= 2 {VERDICT}$", out, re.M):
+        failures.append("the fig3 build is not judged")
+    summary = re.search(r"^Targets: (\d+) PASS, (\d+) MISS, (\d+) not run$", out, re.M)
+    if not summary:
+        failures.append("no summary line")
+    elif int(summary[1]) + int(summary[2]) != 4:
+        failures.append(f"expected 4 targets judged, got {summary[0]}")
+    for f in failures:
+        print("FAIL:", f)
+    if failures:
+        print(out[-3000:])
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1]))
