@@ -89,6 +89,7 @@ icp::Options options_of(const icp::Settings& s, const Eigen::Matrix4d& initial) 
   o.max_iterations = s.max_iterations;
   o.min_translation_step_m = s.min_translation_step_m;
   o.min_rotation_step_rad = s.min_rotation_step_rad;
+  o.use_hints = s.hints;
   return o;
 }
 
@@ -461,6 +462,8 @@ void add_flags(CLI::App& app, ExperimentFlags& experiment, SingleRun& one) {
       ->capture_default_str();
   app.add_option("--min-step-rad", s.min_rotation_step_rad, "... and turns less than this (rad)")->capture_default_str();
   app.add_option("--query-stride", s.query_stride, "use every N-th query point")->capture_default_str();
+  app.add_flag_callback("--no-hints", [&s] { s.hints = false; },
+                        "search without the previous neighbours as hints (adapters that use hints; same answers, slower)");
   app.add_option("--data-dir", one.data.data_dir, nnb::cli::kDataDirHelp);
   app.add_option("--points", one.data.synthetic_points, "points per synthetic set")->capture_default_str();
   app.add_option("--seed", one.data.seed, "seed of the synthetic sets")->capture_default_str();

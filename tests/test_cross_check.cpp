@@ -49,6 +49,22 @@ struct Case {
   SearchKind kind;
 };
 
+// Hints of every kind, query by query: none, the true nearest point (as ICP's hint mostly is), a random
+// model point, the model point of the same index (often far).
+std::vector<nnb::PointIndex> hints_for(const Cloud& model, const Cloud& queries, const nnb::SearchIndex& reference) {
+  Neighbours nearest;
+  reference.knn(queries, 1, nearest);
+  std::mt19937_64 rng(3);
+  std::uniform_int_distribution<nnb::PointIndex> any(0, static_cast<nnb::PointIndex>(model.cols() - 1));
+  std::vector<nnb::PointIndex> hints(static_cast<std::size_t>(queries.cols()));
+  for (std::size_t q = 0; q < hints.size(); ++q) {
+    const nnb::PointIndex kinds[] = {nnb::kNoHint, nearest.indices[nearest.offsets[q]], any(rng),
+                                     static_cast<nnb::PointIndex>(q % static_cast<std::size_t>(model.cols()))};
+    hints[q] = kinds[q % 4];
+  }
+  return hints;
+}
+
 class CrossCheck : public ::testing::TestWithParam<Case> {
  protected:
   // Runs one query kind on both indexes for every distance and k of interest, comparing each time; ranged
@@ -102,6 +118,15 @@ class CrossCheck : public ::testing::TestWithParam<Case> {
               }
             }
           }
+        }
+        for (double d : dists_m) {
+          reference->ranged(queries, 1, d, expected);
+          index->ranged_hinted(queries, d, hints_for(model, queries, *reference), got);
+          if (!compare("ranged_hinted max_dist=" + std::to_string(d) + " m", true)) return;
+          Neighbours plain;
+          index->ranged(queries, 1, d, plain);
+          EXPECT_TRUE(got.indices == plain.indices && got.sq_dists == plain.sq_dists && got.offsets == plain.offsets)
+              << GetParam().adapter << ": hints changed the answer at " << d << " m on " << data_name;
         }
         break;
       }
@@ -353,6 +378,38 @@ TEST(CrossCheckHarness, DetectsWrongAnswers) {
   wrong.push(0, 0.01);
   wrong.end_query();
   EXPECT_NE(compare_with_reference(model, queries, expected, wrong, true), "");  // one missing
+}
+
+TEST_P(EdgeCase, HintsAreCheckedOnePerQueryAndInRange) {
+  const Cloud model = points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+  const Cloud queries = points({{0.1, 0, 0}, {0.9, 0.1, 0}});
+  auto index = nnb::make_adapter(GetParam());
+  index->build(model);
+  Neighbours out;
+  EXPECT_THROW(index->ranged_hinted(queries, 1.0, {0}, out), nnb::InputError);
+  EXPECT_THROW(index->ranged_hinted(queries, 1.0, {0, 3}, out), nnb::InputError);
+  EXPECT_NO_THROW(index->ranged_hinted(queries, 1.0, {nnb::kNoHint, 2}, out));
+  ASSERT_EQ(out.total(), 2u);
+  EXPECT_EQ(out.sq_dists[1], (model.col(1) - queries.col(1)).squaredNorm());
+}
+
+// The float k-d tree widens its limits by its rounding bound, the hint's limit included.
+TEST(HintedSearch, FloatKdTreeAnswersAsWithoutHints) {
+  const auto built = nnb::adapter_names();
+  if (std::find(built.begin(), built.end(), "ours_kdtree") == built.end()) GTEST_SKIP() << "ours_kdtree not built in";
+  const Cloud model = make_shape(Shape::filled_cube, 4000, 21);
+  const Cloud queries = queries_for(model, 22);
+  auto reference = nnb::make_adapter("brute_force");
+  reference->build(model);
+  auto index = nnb::make_adapter("ours_kdtree", {{"scalar", "float"}});
+  index->build(model);
+  ASSERT_TRUE(index->info().uses_hints);
+  Neighbours expected, got;
+  for (double d : {0.0, 0.01, 0.1, 1.0}) {
+    reference->ranged(queries, 1, d, expected);
+    index->ranged_hinted(queries, d, hints_for(model, queries, *reference), got);
+    EXPECT_EQ(compare_with_reference(model, queries, expected, got, true), "") << d << " m";
+  }
 }
 
 GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(EdgeCase);

@@ -27,7 +27,10 @@ class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
     info.structure = "k-d tree";
     ParamReader reader(info.name, params);
     reader.get_bucket("bucket_size", kDefaultBucketSize, 1, 1 << 20, 4, 128);
-    return shared_info(std::move(info), reader);
+    info = shared_info(std::move(info), reader);
+    // Its double search computes distances as sq_dist_m2 does, so a hint's distance is a safe bound.
+    info.uses_hints = true;
+    return info;
   }
 
   void do_build(const Cloud& model) override {

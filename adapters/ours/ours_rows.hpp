@@ -15,14 +15,16 @@
 
 namespace nnb::adapters::ours_rows {
 
-/// Fills out with the k nearest model points within limit_sq_m2 (m^2, inclusive) of each query.
-template <typename T, class Tree>
+/// Fills out with the k nearest model points within limit_sq_m2 (m^2, inclusive) of each query. The tree
+/// searches query q within search_limit_of(q) <= limit_sq_m2, which must still hold the answer (a hint's
+/// distance does: nothing nearer than the nearest lies beyond it).
+template <typename T, class Tree, class Limits>
 void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, double limit_sq_m2,
-            Neighbours& out) {
+            Limits&& search_limit_of, Neighbours& out) {
   out.reset(static_cast<std::size_t>(queries.cols()), static_cast<std::size_t>(queries.cols()));
   typename Tree::Buffers buffers;
   std::vector<std::pair<double, PointIndex>> row;
-  tree.knn_batch(queries.data(), static_cast<std::size_t>(queries.cols()), k, limit_sq_m2, buffers,
+  tree.knn_batch_bounded(queries.data(), static_cast<std::size_t>(queries.cols()), k, search_limit_of, buffers,
                  [&](std::size_t q, const std::vector<ours::Neighbour<T>>& best) {
                    if constexpr (std::is_same_v<T, double>) {
                      for (const auto& n : best) out.push(n.index, n.sq_dist);
@@ -104,8 +106,23 @@ class OursIndex : public SearchIndex {
 
   void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
     const double limit_sq_m2 = max_dist_m * max_dist_m;
-    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, k, limit_sq_m2, out);
-    else ours_rows::ranged<double>(double_, *model_, queries, k, limit_sq_m2, out);
+    const auto same = [limit_sq_m2](std::size_t) { return limit_sq_m2; };
+    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, k, limit_sq_m2, same, out);
+    else ours_rows::ranged<double>(double_, *model_, queries, k, limit_sq_m2, same, out);
+  }
+
+  // The hint's squared distance (computed as sq_dist_m2, as the double tree computes it; a float tree
+  // widens any limit by its rounding bound) bounds the search from the start.
+  void do_ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
+                        Neighbours& out) const override {
+    const double limit_sq_m2 = max_dist_m * max_dist_m;
+    const auto hinted = [&](std::size_t q) {
+      if (hints[q] == kNoHint) return limit_sq_m2;
+      const double sq = sq_dist_m2(queries.col(static_cast<Eigen::Index>(q)).data(), model_->col(hints[q]).data());
+      return std::min(sq, limit_sq_m2);
+    };
+    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, 1, limit_sq_m2, hinted, out);
+    else ours_rows::ranged<double>(double_, *model_, queries, 1, limit_sq_m2, hinted, out);
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {

@@ -196,6 +196,14 @@ double rotation_angle_rad(const Eigen::Matrix4d& transform) {
 
 namespace {
 
+// Each query's neighbour in the last search (kNoHint where it had none): the next search's hints.
+void previous_neighbours(const Neighbours& pairs, std::vector<PointIndex>& hints) {
+  hints.resize(pairs.n_queries());
+  for (std::size_t q = 0; q < pairs.n_queries(); ++q) {
+    hints[q] = pairs.count(q) > 0 ? pairs.indices[pairs.offsets[q]] : kNoHint;
+  }
+}
+
 void check_inputs(const SearchIndex& index, const Cloud& model, const Cloud& query, const Options& options) {
   validate(options);
   if (index.model_size() != static_cast<std::size_t>(model.cols())) {
@@ -243,6 +251,8 @@ Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Clo
   result.pose = checked_rigid(options.initial_pose, "ICP: the initial pose");
   Neighbours pairs;
   Cloud moved;
+  const bool hinted = options.use_hints && index.info().uses_hints;
+  std::vector<PointIndex> hints;
   auto t0 = Clock::now();
   move_queries(query, result.pose, moved, nullptr, model);
   result.estimate_seconds += seconds_since(t0);
@@ -251,7 +261,12 @@ Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Clo
     it.max_dist_m = options.max_dist.at(i);
 
     t0 = Clock::now();
-    index.ranged(moved, 1, it.max_dist_m, pairs);
+    if (hinted && i > 0) {
+      previous_neighbours(pairs, hints);
+      index.ranged_hinted(moved, it.max_dist_m, hints, pairs);
+    } else {
+      index.ranged(moved, 1, it.max_dist_m, pairs);
+    }
     result.nns_seconds += seconds_since(t0);
 
     t0 = Clock::now();

@@ -34,6 +34,8 @@ struct Options {
   double min_translation_step_m = 1e-6;
   double min_rotation_step_rad = 1e-6;
   std::size_t min_correspondences = 3;  ///< fewer pairs than this ends the run as a failure
+  /// Search with the previous iteration's neighbours as hints (adapters that use hints; same answers).
+  bool use_hints = true;
 };
 
 struct Iteration {

@@ -16,6 +16,7 @@ struct Settings {
   double min_translation_step_m = 1e-6;
   double min_rotation_step_rad = 1e-6;
   std::size_t query_stride = 1;  ///< use every query_stride-th query point
+  bool hints = true;             ///< search with the previous neighbours as hints (adapters that use them)
 };
 
 struct Experiment {

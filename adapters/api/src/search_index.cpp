@@ -142,6 +142,33 @@ void SearchIndex::radius(const Cloud& queries, double radius_m, Neighbours& out)
   do_radius(queries, radius_m, out);
 }
 
+void SearchIndex::ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
+                                Neighbours& out) const {
+  if (hints.size() != static_cast<std::size_t>(queries.cols())) {
+    throw InputError(info_.name + ": " + std::to_string(hints.size()) + " hints for " +
+                     std::to_string(queries.cols()) + " queries (one per query, kNoHint for none)");
+  }
+  for (std::size_t q = 0; q < hints.size(); ++q) {
+    if (hints[q] != kNoHint && hints[q] >= model_size_) {
+      throw InputError(info_.name + ": the hint of query " + std::to_string(q) + " (" + std::to_string(hints[q]) +
+                       ") is not a model point (" + std::to_string(model_size_) + " points)");
+    }
+  }
+  if (!info_.uses_hints) {
+    ranged(queries, 1, max_dist_m, out);
+    return;
+  }
+  check_supported(SearchKind::ranged);
+  check_distance(info_.name, "max_dist", max_dist_m);
+  check_queries(queries);
+  do_ranged_hinted(queries, max_dist_m, hints, out);
+}
+
+void SearchIndex::do_ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>&,
+                                   Neighbours& out) const {
+  do_ranged(queries, 1, max_dist_m, out);
+}
+
 void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const {
   ranged(queries, k, max_dist_m, out, info_.ranged);
 }

@@ -152,6 +152,13 @@ class KdTree {
   template <class Emit>
   std::size_t knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, Buffers& buffers,
                         Emit&& emit) const {
+    return knn_batch_bounded(xyz, n, k, [limit_sq_m2](std::size_t) { return limit_sq_m2; }, buffers, emit);
+  }
+
+  /// knn_batch with a limit per query: limit_sq_m2_of(i) (m^2) for query i.
+  template <class Limits, class Emit>
+  std::size_t knn_batch_bounded(const double* xyz, std::size_t n, int k, Limits&& limit_sq_m2_of, Buffers& buffers,
+                                Emit&& emit) const {
     if (n_ == 0 || k < 1) {
       buffers.best.clear();
       for (std::size_t i = 0; i < n; ++i) emit(i, buffers.best);
@@ -170,7 +177,7 @@ class KdTree {
         reused += m;
         for (std::size_t j = 0; j < m; ++j) {
           const Query q = make_query(xyz + 3 * (first + j));
-          collect_knn(k, limit_sq_m2, q.error, buffers, [&](auto& collect) {
+          collect_knn(k, limit_sq_m2_of(first + j), q.error, buffers, [&](auto& collect) {
             same_leaf += search_after_last(q, collect, buffers, last) ? 1 : 0;
           });
           emit(first + j, buffers.best);
@@ -179,14 +186,14 @@ class KdTree {
         Descents batch;
         for (std::size_t j = 0; j < m; ++j) {
           batch.q[j] = make_query(xyz + 3 * (first + j));
-          batch.limit[j] = search_limit(limit_sq_m2, batch.q[j].error);
+          batch.limit[j] = search_limit(limit_sq_m2_of(first + j), batch.q[j].error);
           batch.top[j] = buffers.pending.data() + j * stride;
         }
         descend(batch, m);
         for (std::size_t j = 0; j < m; ++j) {
           same_leaf += batch.leaf[j] == (j > 0 ? batch.leaf[j - 1] : last.leaf) ? 1 : 0;
           PendingCell<T>* const bottom = buffers.pending.data() + j * stride;
-          collect_knn(k, limit_sq_m2, batch.q[j].error, buffers, [&](auto& collect) {
+          collect_knn(k, limit_sq_m2_of(first + j), batch.q[j].error, buffers, [&](auto& collect) {
             search_from(batch.q[j], collect, batch.leaf[j], bottom, batch.top[j]);
           });
           emit(first + j, buffers.best);

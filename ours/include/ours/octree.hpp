@@ -118,11 +118,18 @@ class Octree {
   template <class Emit>
   void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, Buffers& buffers,
                  Emit&& emit) const {
+    knn_batch_bounded(xyz, n, k, [limit_sq_m2](std::size_t) { return limit_sq_m2; }, buffers, emit);
+  }
+
+  /// knn_batch with a limit per query: limit_sq_m2_of(i) (m^2) for query i.
+  template <class Limits, class Emit>
+  void knn_batch_bounded(const double* xyz, std::size_t n, int k, Limits&& limit_sq_m2_of, Buffers& buffers,
+                         Emit&& emit) const {
     OwnPath own;  // each query's path starts from the previous one's (see follow_own_path)
     for (std::size_t i = 0; i < n; ++i) {
       const Query q = make_query(xyz + 3 * i);
       follow_own_path(q, own);
-      knn_one(q, own, k, limit_sq_m2, buffers);
+      knn_one(q, own, k, limit_sq_m2_of(i), buffers);
       emit(i, buffers.best);
     }
   }

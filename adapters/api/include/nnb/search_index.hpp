@@ -17,6 +17,9 @@ namespace nnb {
 
 enum class SearchKind { knn, radius, ranged };
 
+/// A query without a hint (ranged_hinted).
+inline constexpr PointIndex kNoHint = static_cast<PointIndex>(-1);
+
 /// How an adapter answers one query kind: this is what the paper compares, so it is data.
 enum class Strategy {
   native,      ///< the library answers this query itself
@@ -58,6 +61,8 @@ struct AdapterInfo {
     int sensible_max = 0;
   };
   std::optional<BucketParam> bucket;
+  /// Whether ranged_hinted() uses its hints to bound the search (else it answers as ranged() does).
+  bool uses_hints = false;
   std::string notes;      ///< workarounds the adapter applies, in one line
 
   /// The default strategy for a kind: the library's own when it has one.
@@ -96,6 +101,13 @@ class SearchIndex {
   void ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const;
   void ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out, Strategy strategy) const;
 
+  /// Ranged 1-NN with a hint per query: hints[q] is a model point believed near query q (ICP: its
+  /// neighbour in the previous iteration), or kNoHint. The answers are exactly those of
+  /// ranged(queries, 1, max_dist_m, out); an adapter that uses hints starts from the hint's distance as
+  /// its bound (Greenspan and Godin's ICP search), the others ignore them.
+  void ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
+                     Neighbours& out) const;
+
   /// Bytes the index holds beyond the model points themselves (nodes, buckets, copies).
   virtual std::size_t index_bytes() const = 0;
   /// Number of points in the model the index was built on (0 before build).
@@ -109,6 +121,9 @@ class SearchIndex {
   virtual void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const;
   /// Called for the ranged strategies native and native_unpruned.
   virtual void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const;
+  /// Called by ranged_hinted when info().uses_hints; hints are checked (one per query, each in range).
+  virtual void do_ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
+                                Neighbours& out) const;
 
  private:
   void check_queries(const Cloud& queries) const;
