@@ -1,5 +1,6 @@
 // nns_query: answer one query set with one adapter and write every neighbour found as CSV.
 // The tool a user reaches for to check any library's answer, and its speed, by hand.
+#include "adapter_json.hpp"
 #include "cli_common.hpp"
 
 #include "nnb/datasets/catalog.hpp"
@@ -26,7 +27,7 @@ struct Options {
   std::size_t max_neighbours = 10'000'000;
   std::vector<std::string> params;
   nnb::datasets::DataOptions data;
-  bool list = false, table1 = false;
+  bool list = false, json = false;
 };
 
 // --strategy for ranged search (one the adapter offers), else the adapter's default for the kind.
@@ -143,13 +144,24 @@ void write_stats(const Options& opt, const nnb::AdapterInfo& info, nnb::Strategy
   nnb::files::write_file_atomically(opt.stats, stats.dump(2) + "\n");
 }
 
+// Every adapter built in, by name, as a results file's context 'adapters' holds it: plots/table1.py makes
+// Table 1 from this.
+void print_adapter_json() {
+  nlohmann::ordered_json adapters = nlohmann::ordered_json::object();
+  for (const auto& entry : nnb::adapter_registry()) {
+    const auto index = entry.make({});
+    adapters[index->info().name] = nnb::bench::adapter_metadata(index->info());
+  }
+  std::cout << adapters.dump(2) << "\n";
+}
+
 int run(const Options& opt) {
-  if (opt.list) {
-    nnb::cli::print_adapter_list(std::cout);
+  if (opt.list && opt.json) {
+    print_adapter_json();
     return 0;
   }
-  if (opt.table1) {
-    std::cout << nnb::cli::table1_markdown();
+  if (opt.list) {
+    nnb::cli::print_adapter_list(std::cout);
     return 0;
   }
   if (opt.model.empty() || opt.query.empty()) throw nnb::InputError("--model and --query are required");
@@ -195,8 +207,11 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   CLI::App app{"nns_query: answer a query set with one adapter; writes CSV query,neighbor,distance (metres)"};
-  app.add_flag("--list", opt.list, "Print the adapters built in and exit");
-  app.add_flag("--table1", opt.table1, "Print the paper's Table 1 from the adapters' declared data (Markdown)");
+  auto* list = app.add_flag("--list", opt.list, "Print the adapters built in and exit");
+  app.add_flag("--json", opt.json,
+               "With --list: print every adapter's declared metadata as JSON, as a results file's context "
+               "'adapters' holds it (plots/table1.py --from-registry makes Table 1 from it)")
+      ->needs(list);
   app.add_option("--model", opt.model, "Model cloud: a file, a shape (hollow_sphere, ...) or a real pair name");
   app.add_option("--query", opt.query, "Query cloud: a file, a shape, or a real pair (its query scan at its pose)");
   app.add_option("--adapter", opt.adapter, "Adapter name (see --list)")->capture_default_str();

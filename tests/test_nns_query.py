@@ -32,12 +32,21 @@ class Answers(unittest.TestCase):
         self.assertEqual(result.returncode, 0, result.stderr)
         self.assertIn("brute_force", result.stdout)
 
-    def test_table1_is_markdown_with_every_adapter(self):
+    def test_list_json_declares_every_adapter(self):
         names = [line.split("\t")[0] for line in run("--list").stdout.splitlines()]
-        table = run("--table1").stdout
-        self.assertTrue(table.startswith("| adapter |"))
-        for name in names:
-            self.assertIn(f"| {name} |", table)
+        result = run("--list", "--json")
+        self.assertEqual(result.returncode, 0, result.stderr)
+        adapters = json.loads(result.stdout)
+        self.assertEqual(sorted(adapters), sorted(names))
+        for name, info in adapters.items():
+            for field in ("library", "version", "structure", "scalar", "exact", "knn", "radius", "ranged",
+                          "ranged_strategies", "params"):
+                self.assertIn(field, info, name)
+            self.assertEqual(info["ranged_strategies"][0], info["ranged"], name)
+
+    def test_json_without_list_is_refused(self):
+        result = run("--json")
+        self.assertEqual(result.returncode, 2)
 
     def test_csv_is_sorted_and_within_the_limit_and_stats_agree(self):
         out, stats = os.path.join(self.dir, "n.csv"), os.path.join(self.dir, "s.json")
