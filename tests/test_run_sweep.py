@@ -565,7 +565,7 @@ def case_scale_budget():
 
 
 def case_hostile_values():
-    """Values that used to run nothing, wrap or allocate gigabytes: each is one line and exit 2."""
+    """Values that could run nothing, wrap or allocate gigabytes: each is one line and exit 2."""
     work = fresh_workdir()
     experiments = {"fractional_repetitions": {"repetitions": 1.5}, "negative_points": {"synthetic_points": -1},
                    "huge_k": {"k": [2147483648]}, "zero_step": {"dists": "0:1:0"}}
