@@ -16,6 +16,8 @@
 #include <iostream>
 #include <cmath>
 #include <numeric>
+#include <optional>
+#include <vector>
 
 namespace {
 
@@ -27,7 +29,7 @@ struct Options {
   std::size_t max_neighbours = 10'000'000;
   std::vector<std::string> params;
   nnb::datasets::DataOptions data;
-  bool list = false, json = false;
+  bool list = false, json = false, check = false;
 };
 
 // --strategy for ranged search (one the adapter offers), else the adapter's default for the kind.
@@ -117,9 +119,40 @@ double timed_searches(const Options& opt, nnb::SearchKind kind, nnb::Strategy st
   return query_seconds[query_seconds.size() / 2];
 }
 
+// The neighbours' squared distances of query q, ascending.
+std::vector<double> sorted_sq_dists(const nnb::Neighbours& found, std::size_t q) {
+  std::vector<double> sq(found.sq_dists.begin() + static_cast<std::ptrdiff_t>(found.offsets[q]),
+                         found.sq_dists.begin() + static_cast<std::ptrdiff_t>(found.offsets[q + 1]));
+  std::sort(sq.begin(), sq.end());
+  return sq;
+}
+
+// How many queries got neighbours at the distances brute force finds (compared by distance: ties make
+// indices differ between correct answers): what an approximate adapter gets right.
+std::size_t queries_agreeing_with_brute_force(const Options& opt, nnb::SearchKind kind, const nnb::Cloud& model,
+                                              const nnb::Cloud& queries, const nnb::Neighbours& found) {
+  const auto reference = nnb::make_adapter("brute_force", {});
+  reference->build(model);
+  nnb::Neighbours expected;
+  switch (kind) {
+    case nnb::SearchKind::knn: reference->knn(queries, opt.k, expected); break;
+    case nnb::SearchKind::radius: reference->radius(queries, opt.max_dist_m, expected); break;
+    case nnb::SearchKind::ranged: reference->ranged(queries, opt.k, opt.max_dist_m, expected); break;
+  }
+  std::size_t agreeing = 0;
+  for (std::size_t q = 0; q < found.n_queries(); ++q) {
+    const std::vector<double> got = sorted_sq_dists(found, q), want = sorted_sq_dists(expected, q);
+    agreeing += std::equal(got.begin(), got.end(), want.begin(), want.end(), [](double a, double b) {
+      return std::abs(a - b) <= 1e-9 * std::max(a, b);
+    });
+  }
+  return agreeing;
+}
+
 void write_stats(const Options& opt, const nnb::AdapterInfo& info, nnb::Strategy strategy,
                  const nnb::datasets::NamedCloud& model, const nnb::datasets::NamedCloud& query, double build_seconds,
-                 double median_seconds, const nnb::Neighbours& found, std::size_t index_bytes) {
+                 double median_seconds, const nnb::Neighbours& found, std::size_t index_bytes,
+                 std::optional<std::size_t> agreeing) {
   nlohmann::json stats = {
       {"adapter", info.name},
       {"library", info.library},
@@ -141,6 +174,7 @@ void write_stats(const Options& opt, const nnb::AdapterInfo& info, nnb::Strategy
       {"index_bytes", index_bytes},
       {"build_type", nnb::cli::build_type()},
   };
+  if (agreeing) stats["agreeing_with_brute_force"] = *agreeing;
   nnb::files::write_file_atomically(opt.stats, stats.dump(2) + "\n");
 }
 
@@ -193,8 +227,15 @@ int run(const Options& opt) {
   } else {
     nnb::files::write_file_atomically(opt.out, csv);
   }
+  std::optional<std::size_t> agreeing;
+  if (opt.check) {
+    agreeing = queries_agreeing_with_brute_force(opt, kind, model.points, query.points, found);
+    std::cerr << "nns_query: check: " << *agreeing << " of " << found.n_queries()
+              << " queries have the neighbour distances brute force finds\n";
+  }
   if (!opt.stats.empty()) {
-    write_stats(opt, index->info(), strategy, model, query, build_seconds, median_seconds, found, index->index_bytes());
+    write_stats(opt, index->info(), strategy, model, query, build_seconds, median_seconds, found, index->index_bytes(),
+                agreeing);
   }
   std::cerr << "nns_query: " << opt.adapter << " " << opt.search << ": " << found.queries_with_neighbours() << " of "
             << found.n_queries() << " queries found a neighbour; build " << build_seconds << " s, query "
@@ -226,6 +267,9 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", opt.repeat, "Answer the query set N times; query_seconds is the median")
       ->capture_default_str();
   app.add_option("--stats", opt.stats, "Write JSON statistics to this file");
+  app.add_flag("--check", opt.check,
+               "Also search with brute_force and count the queries whose neighbours are at the same distances "
+               "(stderr; agreeing_with_brute_force in --stats)");
   app.add_option("--max-neighbours", opt.max_neighbours,
                  "Refuse a search whose answer would hold more neighbours (CSV rows) than this")
       ->capture_default_str();

@@ -71,6 +71,22 @@ class Answers(unittest.TestCase):
         self.assertEqual(s["found"], len(per_query))
         self.assertEqual(s["adapter"], "brute_force")
 
+    def test_check_counts_the_queries_with_brute_forces_distances(self):
+        listed = run("--list").stdout.splitlines()
+        exact = [line.split("\t")[0] for line in listed if "APPROXIMATE" not in line]
+        approximate = [line.split("\t")[0] for line in listed if "APPROXIMATE" in line]
+        cases = [(name, ["--search", "ranged", "--k", "3", "--max-dist", "0.3"], True) for name in exact[:2]]
+        cases += [(name, ["--search", "knn", "--k", "1"], False) for name in approximate]
+        for name, search, all_agree in cases:
+            stats = os.path.join(self.dir, name + ".json")
+            result = run("--adapter", name, "--model", "hollow_sphere", "--query", "hollow_cube", "--points", "500",
+                         *search, "--check", "--out", os.path.join(self.dir, "n.csv"), "--stats", stats)
+            self.assertEqual(result.returncode, 0, name + ": " + result.stderr)
+            with open(stats) as f:
+                agreeing = json.load(f)["agreeing_with_brute_force"]
+            self.assertIn(f"check: {agreeing} of 500 queries", result.stderr)
+            self.assertTrue(agreeing == 500 if all_agree else 0 <= agreeing <= 500, f"{name}: {agreeing}")
+
     def test_every_adapter_gives_the_same_csv_distances(self):
         names = [line.split("\t")[0] for line in run("--list").stdout.splitlines()
                  if "APPROXIMATE" not in line]
