@@ -1,5 +1,6 @@
 // nns_query: answer one query set with one adapter and write every neighbour found as CSV.
 // The tool a user reaches for to check any library's answer, and its speed, by hand.
+#include "adapter_json.hpp"
 #include "cli_common.hpp"
 
 #include "nnb/datasets/catalog.hpp"
@@ -15,6 +16,8 @@
 #include <iostream>
 #include <cmath>
 #include <numeric>
+#include <optional>
+#include <vector>
 
 namespace {
 
@@ -26,7 +29,7 @@ struct Options {
   std::size_t max_neighbours = 10'000'000;
   std::vector<std::string> params;
   nnb::datasets::DataOptions data;
-  bool list = false, table1 = false;
+  bool list = false, json = false, check = false;
 };
 
 // --strategy for ranged search (one the adapter offers), else the adapter's default for the kind.
@@ -116,9 +119,40 @@ double timed_searches(const Options& opt, nnb::SearchKind kind, nnb::Strategy st
   return query_seconds[query_seconds.size() / 2];
 }
 
+// The neighbours' squared distances of query q, ascending.
+std::vector<double> sorted_sq_dists(const nnb::Neighbours& found, std::size_t q) {
+  std::vector<double> sq(found.sq_dists.begin() + static_cast<std::ptrdiff_t>(found.offsets[q]),
+                         found.sq_dists.begin() + static_cast<std::ptrdiff_t>(found.offsets[q + 1]));
+  std::sort(sq.begin(), sq.end());
+  return sq;
+}
+
+// How many queries got neighbours at the distances brute force finds (compared by distance: ties make
+// indices differ between correct answers): what an approximate adapter gets right.
+std::size_t queries_agreeing_with_brute_force(const Options& opt, nnb::SearchKind kind, const nnb::Cloud& model,
+                                              const nnb::Cloud& queries, const nnb::Neighbours& found) {
+  const auto reference = nnb::make_adapter("brute_force", {});
+  reference->build(model);
+  nnb::Neighbours expected;
+  switch (kind) {
+    case nnb::SearchKind::knn: reference->knn(queries, opt.k, expected); break;
+    case nnb::SearchKind::radius: reference->radius(queries, opt.max_dist_m, expected); break;
+    case nnb::SearchKind::ranged: reference->ranged(queries, opt.k, opt.max_dist_m, expected); break;
+  }
+  std::size_t agreeing = 0;
+  for (std::size_t q = 0; q < found.n_queries(); ++q) {
+    const std::vector<double> got = sorted_sq_dists(found, q), want = sorted_sq_dists(expected, q);
+    agreeing += std::equal(got.begin(), got.end(), want.begin(), want.end(), [](double a, double b) {
+      return std::abs(a - b) <= 1e-9 * std::max(a, b);
+    });
+  }
+  return agreeing;
+}
+
 void write_stats(const Options& opt, const nnb::AdapterInfo& info, nnb::Strategy strategy,
                  const nnb::datasets::NamedCloud& model, const nnb::datasets::NamedCloud& query, double build_seconds,
-                 double median_seconds, const nnb::Neighbours& found, std::size_t index_bytes) {
+                 double median_seconds, const nnb::Neighbours& found, std::size_t index_bytes,
+                 std::optional<std::size_t> agreeing) {
   nlohmann::json stats = {
       {"adapter", info.name},
       {"library", info.library},
@@ -140,16 +174,28 @@ void write_stats(const Options& opt, const nnb::AdapterInfo& info, nnb::Strategy
       {"index_bytes", index_bytes},
       {"build_type", nnb::cli::build_type()},
   };
+  if (agreeing) stats["agreeing_with_brute_force"] = *agreeing;
   nnb::files::write_file_atomically(opt.stats, stats.dump(2) + "\n");
 }
 
+// Every adapter built in, by name, as a results file's context 'adapters' holds it: plots/table1.py makes
+// Table 1 from this.
+void print_adapter_json() {
+  nlohmann::ordered_json adapters = nlohmann::ordered_json::object();
+  for (const auto& entry : nnb::adapter_registry()) {
+    const auto index = entry.make({});
+    adapters[index->info().name] = nnb::bench::adapter_metadata(index->info());
+  }
+  std::cout << adapters.dump(2) << "\n";
+}
+
 int run(const Options& opt) {
-  if (opt.list) {
-    nnb::cli::print_adapter_list(std::cout);
+  if (opt.list && opt.json) {
+    print_adapter_json();
     return 0;
   }
-  if (opt.table1) {
-    std::cout << nnb::cli::table1_markdown();
+  if (opt.list) {
+    nnb::cli::print_adapter_list(std::cout);
     return 0;
   }
   if (opt.model.empty() || opt.query.empty()) throw nnb::InputError("--model and --query are required");
@@ -181,8 +227,15 @@ int run(const Options& opt) {
   } else {
     nnb::files::write_file_atomically(opt.out, csv);
   }
+  std::optional<std::size_t> agreeing;
+  if (opt.check) {
+    agreeing = queries_agreeing_with_brute_force(opt, kind, model.points, query.points, found);
+    std::cerr << "nns_query: check: " << *agreeing << " of " << found.n_queries()
+              << " queries have the neighbour distances brute force finds\n";
+  }
   if (!opt.stats.empty()) {
-    write_stats(opt, index->info(), strategy, model, query, build_seconds, median_seconds, found, index->index_bytes());
+    write_stats(opt, index->info(), strategy, model, query, build_seconds, median_seconds, found, index->index_bytes(),
+                agreeing);
   }
   std::cerr << "nns_query: " << opt.adapter << " " << opt.search << ": " << found.queries_with_neighbours() << " of "
             << found.n_queries() << " queries found a neighbour; build " << build_seconds << " s, query "
@@ -195,8 +248,11 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   CLI::App app{"nns_query: answer a query set with one adapter; writes CSV query,neighbor,distance (metres)"};
-  app.add_flag("--list", opt.list, "Print the adapters built in and exit");
-  app.add_flag("--table1", opt.table1, "Print the paper's Table 1 from the adapters' declared data (Markdown)");
+  auto* list = app.add_flag("--list", opt.list, "Print the adapters built in and exit");
+  app.add_flag("--json", opt.json,
+               "With --list: print every adapter's declared metadata as JSON, as a results file's context "
+               "'adapters' holds it (plots/table1.py --from-registry makes Table 1 from it)")
+      ->needs(list);
   app.add_option("--model", opt.model, "Model cloud: a file, a shape (hollow_sphere, ...) or a real pair name");
   app.add_option("--query", opt.query, "Query cloud: a file, a shape, or a real pair (its query scan at its pose)");
   app.add_option("--adapter", opt.adapter, "Adapter name (see --list)")->capture_default_str();
@@ -211,6 +267,9 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", opt.repeat, "Answer the query set N times; query_seconds is the median")
       ->capture_default_str();
   app.add_option("--stats", opt.stats, "Write JSON statistics to this file");
+  app.add_flag("--check", opt.check,
+               "Also search with brute_force and count the queries whose neighbours are at the same distances "
+               "(stderr; agreeing_with_brute_force in --stats)");
   app.add_option("--max-neighbours", opt.max_neighbours,
                  "Refuse a search whose answer would hold more neighbours (CSV rows) than this")
       ->capture_default_str();

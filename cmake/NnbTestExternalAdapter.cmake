@@ -1,6 +1,7 @@
 # ctest script (cmake -P): a second build of the whole project (SOURCE_DIR) in WORK_DIR with the adapter
 # folder ADAPTER_DIR added by NNB_EXTRA_ADAPTERS and only the cheap adapters; builds only test_cross_check
-# and nns_query, runs the cross-check on ADAPTER (the adapter's name) and checks Table 1 lists it.
+# and nns_query, runs the cross-check on ADAPTER (the adapter's name) and checks that nns_query --list --json,
+# which Table 1 is made from, declares it.
 # WORK_DIR is kept between runs: a rerun only rebuilds what changed.
 foreach(var SOURCE_DIR ADAPTER_DIR ADAPTER WORK_DIR GENERATOR CXX_COMPILER BUILD_TYPE SANITIZE)
   if(NOT DEFINED ${var})
@@ -31,8 +32,8 @@ if(NOT rc EQUAL 0 OR NOT out MATCHES "PASSED  \\] [1-9]")
   message(FATAL_ERROR "external adapter test: the cross-check of ${ADAPTER} failed or ran no test (exit ${rc})")
 endif()
 
-execute_process(COMMAND "${WORK_DIR}/bench/nns_query" --table1 RESULT_VARIABLE rc OUTPUT_VARIABLE table)
-message(STATUS "nns_query --table1:\n${table}")
-if(NOT rc EQUAL 0 OR NOT table MATCHES "(^|\n)[| ]*${ADAPTER}[ |]")
-  message(FATAL_ERROR "external adapter test: nns_query --table1 (exit ${rc}) does not list ${ADAPTER}")
+execute_process(COMMAND "${WORK_DIR}/bench/nns_query" --list --json RESULT_VARIABLE rc OUTPUT_VARIABLE adapters)
+message(STATUS "nns_query --list --json:\n${adapters}")
+if(NOT rc EQUAL 0 OR NOT adapters MATCHES "\n  \"${ADAPTER}\": {")
+  message(FATAL_ERROR "external adapter test: nns_query --list --json (exit ${rc}) does not declare ${ADAPTER}")
 endif()

@@ -32,12 +32,21 @@ class Answers(unittest.TestCase):
         self.assertEqual(result.returncode, 0, result.stderr)
         self.assertIn("brute_force", result.stdout)
 
-    def test_table1_is_markdown_with_every_adapter(self):
+    def test_list_json_declares_every_adapter(self):
         names = [line.split("\t")[0] for line in run("--list").stdout.splitlines()]
-        table = run("--table1").stdout
-        self.assertTrue(table.startswith("| adapter |"))
-        for name in names:
-            self.assertIn(f"| {name} |", table)
+        result = run("--list", "--json")
+        self.assertEqual(result.returncode, 0, result.stderr)
+        adapters = json.loads(result.stdout)
+        self.assertEqual(sorted(adapters), sorted(names))
+        for name, info in adapters.items():
+            for field in ("library", "version", "structure", "scalar", "exact", "knn", "radius", "ranged",
+                          "ranged_strategies", "params"):
+                self.assertIn(field, info, name)
+            self.assertEqual(info["ranged_strategies"][0], info["ranged"], name)
+
+    def test_json_without_list_is_refused(self):
+        result = run("--json")
+        self.assertEqual(result.returncode, 2)
 
     def test_csv_is_sorted_and_within_the_limit_and_stats_agree(self):
         out, stats = os.path.join(self.dir, "n.csv"), os.path.join(self.dir, "s.json")
@@ -61,6 +70,22 @@ class Answers(unittest.TestCase):
             self.assertIn(field, s)
         self.assertEqual(s["found"], len(per_query))
         self.assertEqual(s["adapter"], "brute_force")
+
+    def test_check_counts_the_queries_with_brute_forces_distances(self):
+        listed = run("--list").stdout.splitlines()
+        exact = [line.split("\t")[0] for line in listed if "APPROXIMATE" not in line]
+        approximate = [line.split("\t")[0] for line in listed if "APPROXIMATE" in line]
+        cases = [(name, ["--search", "ranged", "--k", "3", "--max-dist", "0.3"], True) for name in exact[:2]]
+        cases += [(name, ["--search", "knn", "--k", "1"], False) for name in approximate]
+        for name, search, all_agree in cases:
+            stats = os.path.join(self.dir, name + ".json")
+            result = run("--adapter", name, "--model", "hollow_sphere", "--query", "hollow_cube", "--points", "500",
+                         *search, "--check", "--out", os.path.join(self.dir, "n.csv"), "--stats", stats)
+            self.assertEqual(result.returncode, 0, name + ": " + result.stderr)
+            with open(stats) as f:
+                agreeing = json.load(f)["agreeing_with_brute_force"]
+            self.assertIn(f"check: {agreeing} of 500 queries", result.stderr)
+            self.assertTrue(agreeing == 500 if all_agree else 0 <= agreeing <= 500, f"{name}: {agreeing}")
 
     def test_every_adapter_gives_the_same_csv_distances(self):
         names = [line.split("\t")[0] for line in run("--list").stdout.splitlines()

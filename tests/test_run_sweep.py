@@ -221,9 +221,10 @@ def case_compare_py():
 
 
 def case_table1():
-    """nns_query --table1 (from the adapters built in) and plots/table1.py (from a results file) write the
-    same rows for the same adapters."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "plots"))
+    """plots/table1.py --from-registry (the adapters nns_query --list --json declares) writes one row per
+    adapter built in, and for the adapters of a results file the same rows as from that file's metadata."""
+    plots = Path(__file__).resolve().parents[1] / "plots"
+    sys.path.insert(0, str(plots))
     import results_io  # noqa: E402
     from table1 import table1_lines  # noqa: E402
     out = fresh_workdir() / "table1.json"
@@ -231,16 +232,22 @@ def case_table1():
     run(["--points", "300", "--dists", "0:0.1:0.1", "--repetitions", "1", "--adapters", ",".join(adapters),
          "--out", str(out)])
     from_results = table1_lines(results_io.load([out]))
+    check(len(from_results) == 2 + len(adapters), f"table1.py rows from the results file: {from_results}")
     nns_query = Path(RUN_SWEEP).parent / "nns_query"
-    proc = subprocess.run([str(nns_query), "--table1"], capture_output=True, text=True, timeout=300)
-    check(proc.returncode == 0, f"nns_query --table1: {proc.stderr}")
-    from_build = proc.stdout.splitlines()
-    check(from_build[:2] == from_results[:2], f"headers differ:\n{from_build[:2]}\n{from_results[:2]}")
-    rows = {line.split(" | ")[0][2:]: line for line in from_build[2:]}
+    listed = subprocess.run([str(nns_query), "--list"], capture_output=True, text=True, timeout=300)
+    check(listed.returncode == 0, f"nns_query --list: {listed.stderr}")
+    registered = sorted(line.split("\t")[0] for line in listed.stdout.splitlines())
+    proc = subprocess.run([sys.executable, str(plots / "table1.py"), "--from-registry", str(nns_query)],
+                          capture_output=True, text=True, timeout=300)
+    check(proc.returncode == 0, f"table1.py --from-registry: {proc.stderr}")
+    from_registry = proc.stdout.splitlines()
+    check(from_registry[:2] == from_results[:2], f"headers differ:\n{from_registry[:2]}\n{from_results[:2]}")
+    rows = {line.split(" | ")[0][2:]: line for line in from_registry[2:]}
+    check(sorted(rows) == registered and len(rows) == len(from_registry) - 2,
+          f"rows from the registry {sorted(rows)}, adapters registered {registered}")
     for line in from_results[2:]:
         name = line.split(" | ")[0][2:]
-        check(rows.get(name) == line, f"{name}:\n  nns_query: {rows.get(name)}\n  table1.py: {line}")
-    check(len(from_results) == 2 + len(adapters), f"table1.py rows: {from_results}")
+        check(rows.get(name) == line, f"{name}:\n  from the registry: {rows.get(name)}\n  from the results: {line}")
 
 
 def case_strategies():
@@ -558,7 +565,7 @@ def case_scale_budget():
 
 
 def case_hostile_values():
-    """Values that used to run nothing, wrap or allocate gigabytes: each is one line and exit 2."""
+    """Values that could run nothing, wrap or allocate gigabytes: each is one line and exit 2."""
     work = fresh_workdir()
     experiments = {"fractional_repetitions": {"repetitions": 1.5}, "negative_points": {"synthetic_points": -1},
                    "huge_k": {"k": [2147483648]}, "zero_step": {"dists": "0:1:0"}}

@@ -5,14 +5,11 @@
 
 #include <unistd.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
-#include <sstream>
-#include <utility>
 #include <vector>
 
 namespace nnb::cli {
@@ -93,11 +90,10 @@ void warn_if_not_release(std::ostream& err) {
 
 namespace {
 
-// Every ranged strategy an adapter offers, the default first, each written by text().
-template <class Text>
-std::string strategy_list(const AdapterInfo& info, const char* separator, Text text) {
+// Every ranged strategy an adapter offers, the default first.
+std::string ranged_strategy_list(const AdapterInfo& info) {
   std::string list;
-  for (const Strategy s : info.strategies(SearchKind::ranged)) list += (list.empty() ? "" : separator) + std::string(text(s));
+  for (const Strategy s : info.strategies(SearchKind::ranged)) list += (list.empty() ? "" : ",") + std::string(to_string(s));
   return list;
 }
 
@@ -109,58 +105,8 @@ void print_adapter_list(std::ostream& out) {
     const auto& info = index->info();
     out << info.name << "\t" << info.library << " " << info.version << "\t" << info.structure
         << "\tknn:" << to_string(info.knn) << " radius:" << to_string(info.radius)
-        << " ranged:" << strategy_list(info, ",", [](Strategy s) { return to_string(s); }) << (info.exact ? "" : "\tAPPROXIMATE") << "\n";
+        << " ranged:" << ranged_strategy_list(info) << (info.exact ? "" : "\tAPPROXIMATE") << "\n";
   }
-}
-
-namespace {
-
-// The display text of a strategy; plots/style.py's STRATEGY_TEXT holds the same words.
-std::string table_cell(Strategy strategy) {
-  switch (strategy) {
-    case Strategy::native: return "native";
-    case Strategy::native_unpruned: return "native, unpruned";
-    case Strategy::via_knn: return "via k-NN";
-    case Strategy::via_radius: return "via radius";
-    case Strategy::via_box: return "via box";
-    case Strategy::unsupported: return "no";
-  }
-  return "?";
-}
-
-// The library's own ranged calls are in bold, as plots/table1.py writes them.
-std::string ranged_cell(Strategy strategy) {
-  const bool own = strategy == Strategy::native || strategy == Strategy::native_unpruned;
-  return own ? "**" + table_cell(strategy) + "**" : table_cell(strategy);
-}
-
-std::string escaped(std::string text) {
-  for (std::size_t at = text.find('|'); at != std::string::npos; at = text.find('|', at + 2)) text.insert(at, "\\");
-  return text;
-}
-
-}  // namespace
-
-// The same table as plots/table1.py makes from a results file (tests/test_run_sweep.py checks they agree).
-std::string table1_markdown() {
-  std::ostringstream md;
-  md << "| adapter | library | version | data structure | precision | k-NN | fixed radius | ranged | exact | parameters |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|\n";
-  std::vector<std::pair<std::string, AdapterInfo>> rows;
-  for (const auto& entry : adapter_registry()) rows.emplace_back(entry.name, entry.make({})->info());
-  std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (const auto& [name, info] : rows) {
-    std::string params;
-    for (const auto& [key, value] : info.params) params += (params.empty() ? "" : ", ") + key + "=" + value;
-    const std::vector<std::string> cells{info.name, info.library, info.version, info.structure, info.scalar,
-                                         table_cell(info.knn), table_cell(info.radius),
-                                         strategy_list(info, "; ", ranged_cell),
-                                         info.exact ? "yes" : "**no (approximate)**", params.empty() ? "-" : params};
-    md << "|";
-    for (const auto& cell : cells) md << " " << escaped(cell) << " |";
-    md << "\n";
-  }
-  return md.str();
 }
 
 }  // namespace nnb::cli

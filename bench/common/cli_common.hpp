@@ -38,7 +38,5 @@ void warn_if_not_release(std::ostream& err);
 
 /// Prints every adapter built in: name, library, version, structure and strategy per query kind.
 void print_adapter_list(std::ostream& out);
-/// The paper's Table 1 regenerated from the adapters' declared data, as Markdown.
-std::string table1_markdown();
 
 }  // namespace nnb::cli

@@ -1,6 +1,7 @@
 // Records to and from Google Benchmark-style JSON; the atomic writer. One of the two nlohmann TUs.
 #include "results_file.hpp"
 
+#include "adapter_json.hpp"
 #include "files.hpp"
 #include "isolation.hpp"
 #include "json_whole.hpp"
@@ -36,12 +37,6 @@ struct ResultsFile::Json {
 
 namespace {
 
-ordered_json strategy_names(const std::vector<Strategy>& strategies) {
-  ordered_json names = ordered_json::array();
-  for (const Strategy s : strategies) names.push_back(to_string(s));
-  return names;
-}
-
 ordered_json config_of(const RunDescription& run) {
   const Experiment& e = *run.experiment;
   ordered_json c;
@@ -53,7 +48,7 @@ ordered_json config_of(const RunDescription& run) {
     ordered_json kinds = ordered_json::array();
     for (auto kind : a.kinds) kinds.push_back(to_string(kind));
     c["adapters"].push_back({{"name", a.name}, {"version", a.info.version}, {"params", a.info.params},
-                             {"searches", kinds}, {"ranged_strategies", strategy_names(a.ranged_strategies)}});
+                             {"searches", kinds}, {"ranged_strategies", bench::strategy_names(a.ranged_strategies)}});
   }
   c["k"] = e.ks;
   c["dists"] = {{"start_m", e.dists.start_m}, {"stop_m", e.dists.stop_m}, {"step_m", e.dists.step_m}};
@@ -96,12 +91,7 @@ ordered_json context_of(const RunDescription& run) {
   c["config"] = config_of(run);
   c["adapters"] = ordered_json::object();  // by name, as plots/results_io.py reads it
   for (const auto& a : *run.adapters) {
-    const AdapterInfo& i = a.info;
-    c["adapters"][i.name] = {{"library", i.library}, {"version", i.version}, {"structure", i.structure},
-                             {"scalar", i.scalar}, {"exact", i.exact}, {"knn", to_string(i.knn)},
-                             {"radius", to_string(i.radius)}, {"ranged", to_string(i.ranged)},
-                             {"ranged_strategies", strategy_names(i.strategies(SearchKind::ranged))},
-                             {"params", i.params}, {"notes", i.notes}};
+    c["adapters"][a.info.name] = bench::adapter_metadata(a.info);
   }
   c["datasets"] = datasets_of(*run.data);
   if (!run.shard_context.empty()) c["shard"] = ordered_json::parse(run.shard_context);

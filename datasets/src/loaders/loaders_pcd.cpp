@@ -7,7 +7,9 @@
 #include <climits>
 #include <cstdint>
 #include <cstring>
+#include <optional>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 namespace nnb::datasets::detail {
@@ -46,21 +48,56 @@ constexpr unsigned long long kLzfMaxExpansion = 88;
 /// A point record larger than this is no point cloud; it also keeps every size product in 64 bits.
 constexpr unsigned long long kMaxPointBytes = 1ull << 24;
 
-PcdLayout parse_pcd_header(const std::string& path, const std::string& bytes) {
-  auto wrong = [&](const std::string& why) { return InputError("wrong PCD header in " + path + ": " + why); };
-  PcdLayout layout;
-  std::vector<std::string> counts;
-  unsigned long long width = 0, height = 0, points = 0;
-  bool have_width = false, have_height = false, have_points = false;
+InputError wrong_header(const std::string& path, const std::string& why) {
+  return InputError("wrong PCD header in " + path + ": " + why);
+}
+
+/// The whole of text as an unsigned decimal number.
+bool parse_count(const std::string& text, unsigned long long& out) {
+  const auto r = std::from_chars(text.data(), text.data() + text.size(), out);
+  return r.ec == std::errc() && r.ptr == text.data() + text.size();
+}
+
+/// The header's keyword lines as written, before they are checked against each other.
+struct PcdHeaderLines {
+  PcdLayout layout;                 ///< fields, sizes, types, data and where the payload starts
+  std::vector<std::string> counts;  ///< COUNT's words; empty without a COUNT line
+  std::optional<unsigned long long> width, height, points;
+};
+
+/// The one number of a WIDTH, HEIGHT or POINTS line.
+unsigned long long header_number(const std::string& path, const std::string& key,
+                                 const std::vector<std::string>& values) {
+  unsigned long long number = 0;
+  if (values.size() != 1) throw wrong_header(path, "bad " + key + " line");
+  if (!parse_count(values[0], number)) throw wrong_header(path, "bad " + key + " value");
+  return number;
+}
+
+/// Keeps what one keyword line says; VERSION and VIEWPOINT change nothing about the points read.
+void read_header_line(const std::string& path, const std::string& key, std::vector<std::string> values,
+                      PcdHeaderLines& header) {
+  PcdLayout& layout = header.layout;
+  if (key == "VERSION" || key == "VIEWPOINT") return;
+  if (key == "FIELDS" || key == "COLUMNS") layout.fields = std::move(values);
+  else if (key == "SIZE") layout.sizes = std::move(values);
+  else if (key == "TYPE") layout.types = std::move(values);
+  else if (key == "COUNT") header.counts = std::move(values);
+  else if (key == "WIDTH") header.width = header_number(path, key, values);
+  else if (key == "HEIGHT") header.height = header_number(path, key, values);
+  else if (key == "POINTS") header.points = header_number(path, key, values);
+  else if (key == "DATA") layout.data = values.empty() ? "?" : values[0];
+  else throw wrong_header(path, "unknown line '" + key + "'");
+}
+
+/// Every line up to the DATA line, blank lines and comments skipped, and where the payload starts.
+PcdHeaderLines read_header_lines(const std::string& path, const std::string& bytes) {
+  PcdHeaderLines header;
   std::size_t pos = 0;
   std::size_t line_no = 0;
   const char* begin = nullptr;
   const char* end = nullptr;
-  auto parse_count = [&](const std::string& text, unsigned long long& out) {
-    const auto r = std::from_chars(text.data(), text.data() + text.size(), out);
-    return r.ec == std::errc() && r.ptr == text.data() + text.size();
-  };
-  while (layout.data.empty()) {
+  while (header.layout.data.empty()) {
     if (!next_line(bytes, pos, begin, end)) throw InputError("truncated PCD header in " + path + ": no DATA line");
     ++line_no;
     std::istringstream words(std::string(begin, end));
@@ -68,54 +105,67 @@ PcdLayout parse_pcd_header(const std::string& path, const std::string& bytes) {
     if (!(words >> key) || key[0] == '#') continue;
     std::vector<std::string> values;
     for (std::string v; words >> v;) values.push_back(v);
-    auto number = [&](unsigned long long& out) {
-      if (values.size() != 1) throw wrong("bad " + key + " line");
-      if (!parse_count(values[0], out)) throw wrong("bad " + key + " value");
-    };
-    if (key == "VERSION" || key == "VIEWPOINT") continue;
-    if (key == "FIELDS" || key == "COLUMNS") layout.fields = values;
-    else if (key == "SIZE") layout.sizes = values;
-    else if (key == "TYPE") layout.types = values;
-    else if (key == "COUNT") counts = values;
-    else if (key == "WIDTH") { number(width); have_width = true; }
-    else if (key == "HEIGHT") { number(height); have_height = true; }
-    else if (key == "POINTS") { number(points); have_points = true; }
-    else if (key == "DATA") layout.data = values.empty() ? "?" : values[0];
-    else throw wrong("unknown line '" + key + "'");
+    read_header_line(path, key, std::move(values), header);
   }
-  layout.payload_at = pos;
-  layout.payload_line = line_no + 1;
-  const auto& fields = layout.fields;
-  if (fields.empty() || layout.sizes.size() != fields.size() || layout.types.size() != fields.size() ||
-      (!counts.empty() && counts.size() != fields.size())) {
-    throw wrong("FIELDS, SIZE, TYPE and COUNT must list the same number of entries");
-  }
-  if (!have_width || !have_height) throw wrong("no WIDTH or HEIGHT");
+  header.layout.payload_at = pos;
+  header.layout.payload_line = line_no + 1;
+  return header;
+}
+
+/// WIDTH x HEIGHT, refused when absent, absurd, or not what POINTS says.
+unsigned long long point_count(const std::string& path, const PcdHeaderLines& header) {
+  if (!header.width || !header.height) throw wrong_header(path, "no WIDTH or HEIGHT");
+  const unsigned long long width = *header.width, height = *header.height;
   const unsigned long long max_points = 1ull << 32;
   if (width > max_points || height > max_points || (height != 0 && width > max_points / height)) {
-    throw wrong("absurd WIDTH x HEIGHT");
+    throw wrong_header(path, "absurd WIDTH x HEIGHT");
   }
-  layout.n = width * height;
-  if (have_points && points != layout.n) throw wrong("POINTS is not WIDTH x HEIGHT");
+  if (header.points && *header.points != width * height) throw wrong_header(path, "POINTS is not WIDTH x HEIGHT");
+  return width * height;
+}
+
+/// Refuses a header without fields, or whose SIZE, TYPE or COUNT does not give one entry per field.
+void check_one_entry_per_field(const std::string& path, const PcdHeaderLines& header) {
+  const PcdLayout& layout = header.layout;
+  const std::size_t n_fields = layout.fields.size();
+  if (n_fields == 0 || layout.sizes.size() != n_fields || layout.types.size() != n_fields ||
+      (!header.counts.empty() && header.counts.size() != n_fields)) {
+    throw wrong_header(path, "FIELDS, SIZE, TYPE and COUNT must list the same number of entries");
+  }
+}
+
+/// Checks each field's SIZE, TYPE and COUNT (one value when COUNT is absent) and sums the point's bytes.
+void read_field_layout(const std::string& path, const std::vector<std::string>& counts, PcdLayout& layout) {
+  const auto& fields = layout.fields;
   for (std::size_t i = 0; i < fields.size(); ++i) {
     const std::string& size = layout.sizes[i];
     const std::string& type = layout.types[i];
     if (!(size == "1" || size == "2" || size == "4" || size == "8") || !(type == "F" || type == "U" || type == "I") ||
         (type == "F" && !(size == "4" || size == "8"))) {
-      throw wrong("bad SIZE/TYPE '" + size + " " + type + "' of field " + fields[i]);
+      throw wrong_header(path, "bad SIZE/TYPE '" + size + " " + type + "' of field " + fields[i]);
     }
     unsigned long long count = 1;
     if (!counts.empty() && (!parse_count(counts[i], count) || count == 0 || count > 1000000)) {
-      throw wrong("bad COUNT of field " + fields[i]);
+      throw wrong_header(path, "bad COUNT of field " + fields[i]);
     }
     layout.counts.push_back(count);
     layout.point_bytes += count * static_cast<unsigned long long>(size[0] - '0');
-    if (layout.point_bytes > kMaxPointBytes) throw wrong("absurd point size");
+    if (layout.point_bytes > kMaxPointBytes) throw wrong_header(path, "absurd point size");
   }
+}
+
+PcdLayout parse_pcd_header(const std::string& path, const std::string& bytes) {
+  PcdHeaderLines header = read_header_lines(path, bytes);
+  PcdLayout& layout = header.layout;
+  check_one_entry_per_field(path, header);
+  layout.n = point_count(path, header);
+  read_field_layout(path, header.counts, layout);
   for (const char* axis : {"x", "y", "z"}) {
-    if (std::find(fields.begin(), fields.end(), axis) == fields.end()) throw wrong("no x, y and z fields");
+    if (std::find(layout.fields.begin(), layout.fields.end(), axis) == layout.fields.end()) {
+      throw wrong_header(path, "no x, y and z fields");
+    }
   }
-  return layout;
+  return std::move(layout);
 }
 
 /// Checks every size the header claims against the file before anything is allocated.

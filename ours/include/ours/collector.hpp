@@ -131,8 +131,8 @@ constexpr int kLinearHeapMaxK = 30;
 
 /// The float error model. For float coordinates stored relative to an origin, with the query's largest
 /// coordinate magnitude m (metres, relative to that origin), |float sq_dist - exact sq_dist| stays
-/// below about 21 u (m^2 + d) with u = 2^-24; slack() allows 128 u, about six times that bound, since the
-/// bound itself is a first-order estimate.
+/// below about 21 u (m^2 + d) with u = 2^-24 (5.9604645e-8); slack() allows 128 u, about six times that
+/// bound, since the bound itself is a first-order estimate.
 template <typename T>
 struct ErrorModel {
   static constexpr bool kConservative = std::is_same_v<T, float>;
@@ -148,9 +148,13 @@ struct ErrorModel {
   }
 };
 
-/// Relative safety factor on incrementally updated cell bounds. Each of the `steps` updates of a cell's
-/// squared distance (a subtraction, a square and an add: about 3 u of relative error) is allowed 8 u, and
-/// 8 steps more cover the first sum; a pruning test against bound * shrink is then never wrong.
+/// Relative safety factor on incrementally updated cell bounds. A cell's squared distance starts as one
+/// squared offset and is updated once a level, rd - old_off^2 + new_off^2 with new_off = q - plane: about
+/// 5 u of relative error, and the value only grows along a path (a deeper plane on an axis is no nearer
+/// than the wall it replaces), so the errors add up relative to the final value. Each of the `steps`
+/// updates (the tree's depth) is allowed 8 u, and 8 steps more cover the first square and the product with
+/// the factor; a pruning test against bound * shrink is then never wrong. The cap at 0.5 keeps the factor
+/// positive; in float it binds only past a million levels.
 template <typename T>
 inline T bound_shrink(int steps) {
   const double u = std::is_same_v<T, float> ? 5.9604645e-8 : 1.1102230246251565e-16;
