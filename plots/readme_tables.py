@@ -14,6 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import fig_icp  # noqa: E402
 import fig_scale  # noqa: E402
 import findings  # noqa: E402
+import provenance  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
 from table1 import table1_lines  # noqa: E402
@@ -102,8 +103,55 @@ def findings_lines(results):
     return lines + [f"| {v.number} | {v.claim} | **{v.verdict}** |" for v in findings.evaluate(results, 0.1)]
 
 
+NOT_RECORDED = "not recorded"  # a field an older results file lacks: said, never guessed
+
+
+def _cell(text):
+    return str(text).replace("|", "\\|")
+
+
+def _load_1min(load):
+    """The 1-minute load average of a context's load list, or None."""
+    return f"{load[0]:.2f}" if isinstance(load, list) and load and isinstance(load[0], (int, float)) else None
+
+
+def _commit_text(context):
+    commit = context.get("git_commit")
+    if not commit:
+        return NOT_RECORDED
+    return str(commit).removesuffix("+dirty")[:7] + (" (dirty)" if provenance.is_dirty(context) else "")
+
+
+def _wall_text(context):
+    seconds = provenance.wall_seconds(context)
+    if seconds is None:
+        return NOT_RECORDED
+    text = f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min"
+    resumed = context.get("resumed")
+    return text + (f" (the last of {len(resumed) + 1} runs: resumed)" if isinstance(resumed, list) and resumed else "")
+
+
+def provenance_cells(path, context):
+    """One results file's row: file, experiment, command, commit, load before -> after, start, wall time."""
+    command = context.get("command_line")
+    before, after = _load_1min(context.get("load_avg")), _load_1min(context.get("load_avg_after"))
+    return [f"`{results_io.display_path(path)}`", results_io.experiment_of(context) or "-",
+            f"`{_cell(command)}`" if command else NOT_RECORDED, _commit_text(context),
+            f"{before or NOT_RECORDED} -> {after or NOT_RECORDED}", context.get("date") or NOT_RECORDED,
+            _wall_text(context)]
+
+
+def reference_runs_lines(results):
+    """Every results file read, oldest first, with the provenance its context records."""
+    lines = ["| file | experiment | command as run | commit | load (1 min) before -> after | started | wall time |",
+             "|---|---|---|---|---|---|---|"]
+    files = sorted(results.files, key=lambda f: (results_io.file_date(f[1]), results_io.display_path(f[0])))
+    return lines + ["| " + " | ".join(provenance_cells(path, ctx)) + " |" for path, ctx in files]
+
+
 TABLES = {"table1": table1_lines, "icp_ranking": icp_lines, "micro_nns": micro_lines,
-          "micro_nns_times": micro_times_lines, "scale": scale_lines, "findings": findings_lines}
+          "micro_nns_times": micro_times_lines, "scale": scale_lines, "findings": findings_lines,
+          "reference_runs": reference_runs_lines}
 
 
 def generate(results, name):
