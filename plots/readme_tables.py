@@ -149,9 +149,44 @@ def reference_runs_lines(results):
     return lines + ["| " + " | ".join(provenance_cells(path, ctx)) + " |" for path, ctx in files]
 
 
+def _both(model, query, field, fmt="{:,}"):
+    values = [scan.get(field) for scan in (model, query)]
+    if any(v is None for v in values):
+        return NOT_RECORDED
+    return " / ".join(fmt.format(v) for v in values)
+
+
+def real_pair_scans(results):
+    """{pair: (model entry, query entry)} of the real pairs' scans in the results' context.datasets."""
+    scans = {}
+    for (spec, role), entry in results.datasets.items():
+        if entry.get("kind") == "real_pair" and role in ("model", "query"):
+            scans.setdefault(spec, {})[role] = entry
+    return {spec: (s["model"], s["query"]) for spec, s in scans.items() if len(s) == 2}
+
+
+def real_pairs_lines(results):
+    """Per real pair, its scans as loaded: points kept and read, dropped by kind, units, the query's pose."""
+    lines = ["| pair (model <- query) | points kept (model / query) | read | dropped non-finite | dropped (0,0,0) | "
+             "units in the files | query placed by |", "|---|---|---|---|---|---|---|"]
+    for pair, (model, query) in real_pair_scans(results).items():
+        files = f" ({model['file']} <- {query['file']})" if model.get("file") and query.get("file") else ""
+        lines.append(f"| `{pair}`{files} | {_both(model, query, 'points')} | {_both(model, query, 'n_read')} | "
+                     f"{_both(model, query, 'n_non_finite')} | {_both(model, query, 'n_zero')} | "
+                     f"{_cell(model.get('units') or NOT_RECORDED)} | {_placed_text(query)} |")
+    return lines
+
+
+def _placed_text(query):
+    placed = query.get("placed_by")
+    if placed is None:
+        return NOT_RECORDED
+    return placed if placed == "identity" else f"`{placed}`"
+
+
 TABLES = {"table1": table1_lines, "icp_ranking": icp_lines, "micro_nns": micro_lines,
           "micro_nns_times": micro_times_lines, "scale": scale_lines, "findings": findings_lines,
-          "reference_runs": reference_runs_lines}
+          "reference_runs": reference_runs_lines, "real_pairs": real_pairs_lines}
 
 
 def generate(results, name):

@@ -74,6 +74,7 @@ class Results:
         self.build_skips = {}  # (model, adapter) -> reason the build did not run
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
         self.duplicates = {}  # record name -> [paths of every file holding it], when more than one
+        self.datasets = {}   # (spec, role) -> a context.datasets entry: the last file's (newest with prefer)
 
     def adapter_info(self, name):
         return self.adapters.get(name, {})
@@ -287,8 +288,9 @@ def load(paths, prefer=None):
         for name, info in (context.get("adapters") or {}).items():
             if isinstance(info, dict):
                 results.adapters.setdefault(name, {}).update({k: v for k, v in info.items() if v is not None})
-        sizes = {(d.get("spec"), d.get("role")): _number(d.get("points"))
-                 for d in (context.get("datasets") or []) if isinstance(d, dict)}
+        datasets = {(d.get("spec"), d.get("role")): d for d in (context.get("datasets") or []) if isinstance(d, dict)}
+        results.datasets.update(datasets)
+        sizes = {key: _number(d.get("points")) for key, d in datasets.items()}
         micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) == "micro"]
         for rec in micro:
             if rec.get("run_type") != "aggregate":

@@ -1,4 +1,5 @@
-"""readme_tables.py's generated tables on fixture results."""
+"""readme_tables.py's generated tables on fixture results: the reference runs' provenance and the real pairs'
+scans."""
 import json
 import tempfile
 import unittest
@@ -8,6 +9,12 @@ import fixtures
 
 import readme_tables  # noqa: E402
 import results_io  # noqa: E402
+
+def scan(pair, role, points, n_non_finite=0, n_zero=0, **extra):
+    return {"spec": pair, "role": role, "kind": "real_pair", "file": f"{pair}-{role}.pcd", "points": points,
+            "n_read": points + n_non_finite + n_zero, "n_dropped": n_non_finite + n_zero,
+            "n_non_finite": n_non_finite, "n_zero": n_zero, "units": "m", **extra}
+
 
 class ReadmeTablesTest(unittest.TestCase):
     def setUp(self):
@@ -33,6 +40,27 @@ class ReadmeTablesTest(unittest.TestCase):
                                    "1.50 -> not recorded | 2024-01-01T00:00:00 | not recorded |")
         self.assertEqual(lines[3], f"| `{self.dir / 'new.json'}` | quick | `run_sweep --experiment quick` | "
                                    "0123456 (dirty) | 0.10 -> 0.20 | 2024-01-02T00:00:00 | 5 min |")
+
+    def test_real_pairs_row_per_pair_from_the_datasets_context(self):
+        context = {"date": "2024-01-01T00:00:00", "datasets": [
+            scan("kinect", "model", 1000, n_non_finite=20), scan("kinect", "query", 990, n_non_finite=30,
+                                                                  placed_by="identity"),
+            scan("velodyne", "model", 5000, n_zero=7), scan("velodyne", "query", 5100, n_zero=9,
+                                                            placed_by="relative.txt"),
+            {"spec": "hollow_cube", "role": "model", "kind": "synthetic", "points": 60000}]}
+        lines = readme_tables.real_pairs_lines(results_io.load([self.write("pairs.json", context)]))
+        self.assertEqual(lines[2:], [
+            "| `kinect` (kinect-model.pcd <- kinect-query.pcd) | 1,000 / 990 | 1,020 / 1,020 | 20 / 30 | 0 / 0 | m | "
+            "identity |",
+            "| `velodyne` (velodyne-model.pcd <- velodyne-query.pcd) | 5,000 / 5,100 | 5,007 / 5,109 | 0 / 0 | 7 / 9 | "
+            "m | `relative.txt` |"])
+
+    def test_real_pairs_fields_an_older_file_lacks_are_not_recorded(self):
+        entries = [{"spec": "sick", "role": role, "kind": "real_pair", "points": 81360, "n_read": 81360}
+                   for role in ("model", "query")]
+        lines = readme_tables.real_pairs_lines(results_io.load([self.write("sweep.json", {"datasets": entries})]))
+        self.assertEqual(lines[2:], ["| `sick` | 81,360 / 81,360 | 81,360 / 81,360 | not recorded | not recorded | "
+                                     "not recorded | not recorded |"])
 
 
 if __name__ == "__main__":
