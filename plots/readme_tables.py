@@ -184,9 +184,49 @@ def _placed_text(query):
     return placed if placed == "identity" else f"`{placed}`"
 
 
+def _length_text(metres):
+    if metres < 0.01:
+        return f"{metres * 1e3:.2g} mm"
+    return f"{metres * 1e2:.2g} cm" if metres < 1 else f"{metres:.3g} m"
+
+
+def _schedule_text(settings):
+    start, factor = settings.get("max_dist_start_m"), settings.get("max_dist_factor")
+    if start is None or factor is None:
+        return NOT_RECORDED
+    text = f"{start:g} m fixed" if factor == 1 else f"{start:g} -> {settings.get('max_dist_floor_m', 0):g} m, x{factor:g}"
+    if settings.get("max_iterations") is not None:
+        text += f", at most {settings['max_iterations']} iterations"
+    stride = settings.get("query_stride") or 1
+    return text + (f", query stride {stride}" if stride > 1 else "")
+
+
+def _start_text(settings):
+    pose = settings.get("initial_pose")
+    if not isinstance(pose, list):
+        return NOT_RECORDED
+    identity = all(pose[r][c] == (1.0 if r == c else 0.0) for r in range(4) for c in range(4))
+    return "identity" if identity else "the pair's initial pose"
+
+
+def icp_accuracy_lines(results):
+    """Per pair of the accuracy experiment: the settings, the start, the iterations and the final pose's error."""
+    lines = ["| pair | adapter | settings | start | iterations | error vs reference (translation / rotation) |",
+             "|---|---|---|---|---|---|"]
+    for run in [r for r in results.icp if fig_icp.is_accuracy_run(r)]:
+        settings = run.settings or {}
+        iterations = "-" if run.iterations is None else f"{run.iterations:g}" + (
+            " (not converged)" if run.converged is False else "")
+        error = ("no reference" if run.ref_translation_error_m is None or run.ref_rotation_error_deg is None else
+                 f"{_length_text(run.ref_translation_error_m)} / {run.ref_rotation_error_deg:.2g} deg")
+        lines.append(f"| {run.pair} | {run.adapter} | {_schedule_text(settings)} | {_start_text(settings)} | "
+                     f"{iterations} | {error} |")
+    return lines
+
+
 TABLES = {"table1": table1_lines, "icp_ranking": icp_lines, "micro_nns": micro_lines,
           "micro_nns_times": micro_times_lines, "scale": scale_lines, "findings": findings_lines,
-          "reference_runs": reference_runs_lines, "real_pairs": real_pairs_lines}
+          "reference_runs": reference_runs_lines, "real_pairs": real_pairs_lines, "icp_accuracy": icp_accuracy_lines}
 
 
 def generate(results, name):

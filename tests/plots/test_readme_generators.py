@@ -1,5 +1,5 @@
-"""readme_tables.py's generated tables on fixture results: the reference runs' provenance and the real pairs'
-scans."""
+"""readme_tables.py's generated tables on fixture results: the reference runs' provenance, the real pairs'
+scans and the ICP accuracy run."""
 import json
 import tempfile
 import unittest
@@ -10,10 +10,22 @@ import fixtures
 import readme_tables  # noqa: E402
 import results_io  # noqa: E402
 
+IDENTITY = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+MOVED = [[1.0, 0.0, 0.0, 0.5], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+
+
 def scan(pair, role, points, n_non_finite=0, n_zero=0, **extra):
     return {"spec": pair, "role": role, "kind": "real_pair", "file": f"{pair}-{role}.pcd", "points": points,
             "n_read": points + n_non_finite + n_zero, "n_dropped": n_non_finite + n_zero,
             "n_non_finite": n_non_finite, "n_zero": n_zero, "units": "m", **extra}
+
+
+def accuracy_record(pair, initial, error_m, error_deg, converged=True, **settings):
+    return {"name": f"icp/{pair}/nanoflann_kdtree/bucket:10", "pair": pair, "adapter": "nanoflann_kdtree",
+            "bucket_size": 10, "icp_seconds": 1.0, "real_time": 1.0, "time_unit": "s", "iterations": 12,
+            "converged": converged, "max_dist_start_m": 1.0, "max_dist_factor": 0.8, "max_dist_floor_m": 0.2,
+            "max_iterations": 50, "query_stride": 1, "initial_pose": initial, "final_pose": IDENTITY,
+            "ref_translation_error_m": error_m, "ref_rotation_error_deg": error_deg, **settings}
 
 
 class ReadmeTablesTest(unittest.TestCase):
@@ -61,6 +73,26 @@ class ReadmeTablesTest(unittest.TestCase):
         lines = readme_tables.real_pairs_lines(results_io.load([self.write("sweep.json", {"datasets": entries})]))
         self.assertEqual(lines[2:], ["| `sick` | 81,360 / 81,360 | 81,360 / 81,360 | not recorded | not recorded | "
                                      "not recorded | not recorded |"])
+
+    def test_icp_accuracy_reads_the_accuracy_experiment_only(self):
+        records = [accuracy_record("velodyne", IDENTITY, 0.011, 0.35),
+                   accuracy_record("sick", MOVED, 0.00009, 0.0015, max_dist_factor=1.0, query_stride=8),
+                   accuracy_record("kitti", IDENTITY, 0.24, 0.11, converged=False)]
+        timing = [accuracy_record("velodyne", IDENTITY, 0.5, 5.0)]
+        results = results_io.load([self.write("acc.json", {"experiment": "icp_accuracy"}, records),
+                                   self.write("real.json", {"experiment": "icp_real"}, timing)])
+        self.assertEqual(readme_tables.icp_accuracy_lines(results)[2:], [
+            "| velodyne | nanoflann_kdtree | 1 -> 0.2 m, x0.8, at most 50 iterations | identity | 12 | 1.1 cm / 0.35 deg |",
+            "| sick | nanoflann_kdtree | 1 m fixed, at most 50 iterations, query stride 8 | the pair's initial "
+            "pose | 12 | 0.09 mm / 0.0015 deg |",
+            "| kitti | nanoflann_kdtree | 1 -> 0.2 m, x0.8, at most 50 iterations | identity | 12 (not converged) | "
+            "24 cm / 0.11 deg |"])
+
+    def test_accuracy_runs_stay_out_of_the_icp_timing(self):
+        import fig_icp
+        records = [accuracy_record("velodyne", IDENTITY, 0.011, 0.35)]
+        results = results_io.load([self.write("acc.json", {"experiment": "icp_accuracy"}, records)])
+        self.assertEqual(fig_icp.real_times(results), {})
 
 
 if __name__ == "__main__":
