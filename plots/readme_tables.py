@@ -126,7 +126,7 @@ def _wall_text(context):
     seconds = provenance.wall_seconds(context)
     if seconds is None:
         return NOT_RECORDED
-    text = f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min"
+    text = f"{seconds:.2g} s" if seconds < 10 else f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min"
     resumed = context.get("resumed")
     return text + (f" (the last of {len(resumed) + 1} runs: resumed)" if isinstance(resumed, list) and resumed else "")
 
