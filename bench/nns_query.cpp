@@ -2,6 +2,8 @@
 // The tool a user reaches for to check any library's answer, and its speed, by hand.
 #include "adapter_json.hpp"
 #include "cli_common.hpp"
+#include "machine_json.hpp"
+#include "results_json.hpp"
 
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/registry.hpp"
@@ -13,6 +15,7 @@
 #include <charconv>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <cmath>
 #include <numeric>
@@ -22,7 +25,7 @@
 namespace {
 
 struct Options {
-  std::string model, query, adapter = "brute_force", search = "ranged", strategy, out, stats;
+  std::string model, query, adapter = "brute_force", search = "ranged", strategy, out, stats, describe_pairs;
   int k = 1;
   double max_dist_m = 0.1;
   int repeat = 1;
@@ -189,6 +192,42 @@ void print_adapter_json() {
   std::cout << adapters.dump(2) << "\n";
 }
 
+// A real pair's scan as loaded here, in run_sweep's context.datasets form plus the dropped points by kind,
+// the units of the file and, for the query, the pose file it is placed by.
+nlohmann::ordered_json scan_entry(const nnb::datasets::RealPair& pair, nnb::datasets::Role role,
+                                  const nnb::datasets::DataOptions& data) {
+  const auto cloud = nnb::datasets::load_pair_scan(pair, role, data);
+  const bool is_query = role == nnb::datasets::Role::query;
+  nlohmann::ordered_json entry{{"spec", pair.name}, {"role", is_query ? "query" : "model"}, {"kind", cloud.kind},
+                               {"file", std::filesystem::path(cloud.source).filename().string()},
+                               {"sha256", cloud.sha256}, {"points", cloud.points.cols()}, {"n_read", cloud.n_read},
+                               {"n_dropped", cloud.n_dropped}, {"n_non_finite", cloud.n_non_finite},
+                               {"n_zero", cloud.n_zero}, {"units", pair.units}};
+  if (is_query) {
+    entry["placed_by"] = pair.reference ? pair.reference->file : pair.initial ? pair.initial->file : "identity";
+  }
+  return entry;
+}
+
+// Every real pair loaded through the loaders, written as a results file whose context lists each scan:
+// the README's data-set table reads it, so that it needs no data to be checked.
+void describe_real_pairs(const Options& opt) {
+  nnb::files::check_output_path(opt.describe_pairs, {});
+  nlohmann::ordered_json context;
+  nnb::bench::put_machine_and_build(context, nnb::bench::read_machine_info(), nnb::bench::read_build_info(),
+                                    "nns_query");
+  context["data_dir"] = opt.data.data_dir.empty() ? nnb::datasets::default_data_dir() : opt.data.data_dir;
+  context["datasets"] = nlohmann::ordered_json::array();
+  for (const auto& pair : nnb::datasets::real_pairs()) {
+    for (const auto role : {nnb::datasets::Role::model, nnb::datasets::Role::query}) {
+      context["datasets"].push_back(scan_entry(pair, role, opt.data));
+    }
+  }
+  nnb::bench::put_run(context, nnb::bench::read_run_info());  // the wall time and load now the loading is done
+  nnb::files::write_file_atomically(opt.describe_pairs, nnb::bench::results::file_text(context, {}));
+  std::cerr << "nns_query: " << context["datasets"].size() << " scans described in " << opt.describe_pairs << "\n";
+}
+
 int run(const Options& opt) {
   if (opt.list && opt.json) {
     print_adapter_json();
@@ -196,6 +235,10 @@ int run(const Options& opt) {
   }
   if (opt.list) {
     nnb::cli::print_adapter_list(std::cout);
+    return 0;
+  }
+  if (!opt.describe_pairs.empty()) {
+    describe_real_pairs(opt);
     return 0;
   }
   if (opt.model.empty() || opt.query.empty()) throw nnb::InputError("--model and --query are required");
@@ -246,6 +289,7 @@ int run(const Options& opt) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  nnb::bench::mark_run_start(argc, argv);
   Options opt;
   CLI::App app{"nns_query: answer a query set with one adapter; writes CSV query,neighbor,distance (metres)"};
   auto* list = app.add_flag("--list", opt.list, "Print the adapters built in and exit");
@@ -253,6 +297,8 @@ int main(int argc, char** argv) {
                "With --list: print every adapter's declared metadata as JSON, as a results file's context "
                "'adapters' holds it (plots/table1.py --from-registry makes Table 1 from it)")
       ->needs(list);
+  app.add_option("--describe-real-pairs", opt.describe_pairs,
+                 "Load every real pair and write its scans' point counts (kept, dropped by kind) as JSON to this file");
   app.add_option("--model", opt.model, "Model cloud: a file, a shape (hollow_sphere, ...) or a real pair name");
   app.add_option("--query", opt.query, "Query cloud: a file, a shape, or a real pair (its query scan at its pose)");
   app.add_option("--adapter", opt.adapter, "Adapter name (see --list)")->capture_default_str();

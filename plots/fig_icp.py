@@ -17,6 +17,11 @@ def is_bucket_run(run):
     return run.bucket_size is not None
 
 
+def is_accuracy_run(run):
+    """run_icp's accuracy experiments (icp_accuracy) measure the final pose; no figure of time draws them."""
+    return bool(run.experiment) and run.experiment.startswith("icp_accuracy")
+
+
 def icp_label(adapter, search, results):
     info = results.adapter_info(adapter)
     kind = f" — {search}" if search else ""
@@ -64,7 +69,7 @@ def real_times(results):
     """{pair: {(adapter, search): (median icp seconds, all converged or None, bucket size or None)}}."""
     runs = {}
     for run in results.icp:
-        if not is_bucket_run(run):
+        if not is_bucket_run(run) and not is_accuracy_run(run):
             runs.setdefault(run.pair, {}).setdefault((run.adapter, run.search), []).append(run)
     out = {}
     for pair, by_key in runs.items():

@@ -14,6 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import fig_icp  # noqa: E402
 import fig_scale  # noqa: E402
 import findings  # noqa: E402
+import provenance  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
 from table1 import table1_lines  # noqa: E402
@@ -102,8 +103,130 @@ def findings_lines(results):
     return lines + [f"| {v.number} | {v.claim} | **{v.verdict}** |" for v in findings.evaluate(results, 0.1)]
 
 
+NOT_RECORDED = "not recorded"  # a field an older results file lacks: said, never guessed
+
+
+def _cell(text):
+    return str(text).replace("|", "\\|")
+
+
+def _load_1min(load):
+    """The 1-minute load average of a context's load list, or None."""
+    return f"{load[0]:.2f}" if isinstance(load, list) and load and isinstance(load[0], (int, float)) else None
+
+
+def _commit_text(context):
+    commit = context.get("git_commit")
+    if not commit:
+        return NOT_RECORDED
+    return str(commit).removesuffix("+dirty")[:7] + (" (dirty)" if provenance.is_dirty(context) else "")
+
+
+def _wall_text(context):
+    seconds = provenance.wall_seconds(context)
+    if seconds is None:
+        return NOT_RECORDED
+    text = f"{seconds:.2g} s" if seconds < 10 else f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min"
+    resumed = context.get("resumed")
+    return text + (f" (the last of {len(resumed) + 1} runs: resumed)" if isinstance(resumed, list) and resumed else "")
+
+
+def provenance_cells(path, context):
+    """One results file's row: file, experiment, command, commit, load before -> after, start, wall time."""
+    command = context.get("command_line")
+    before, after = _load_1min(context.get("load_avg")), _load_1min(context.get("load_avg_after"))
+    return [f"`{results_io.display_path(path)}`", results_io.experiment_of(context) or "-",
+            f"`{_cell(command)}`" if command else NOT_RECORDED, _commit_text(context),
+            f"{before or NOT_RECORDED} -> {after or NOT_RECORDED}", context.get("date") or NOT_RECORDED,
+            _wall_text(context)]
+
+
+def reference_runs_lines(results):
+    """Every results file read, oldest first, with the provenance its context records."""
+    lines = ["| file | experiment | command as run | commit | load (1 min) before -> after | started | wall time |",
+             "|---|---|---|---|---|---|---|"]
+    files = sorted(results.files, key=lambda f: (results_io.file_date(f[1]), results_io.display_path(f[0])))
+    return lines + ["| " + " | ".join(provenance_cells(path, ctx)) + " |" for path, ctx in files]
+
+
+def _both(model, query, field, fmt="{:,}"):
+    values = [scan.get(field) for scan in (model, query)]
+    if any(v is None for v in values):
+        return NOT_RECORDED
+    return " / ".join(fmt.format(v) for v in values)
+
+
+def real_pair_scans(results):
+    """{pair: (model entry, query entry)} of the real pairs' scans in the results' context.datasets."""
+    scans = {}
+    for (spec, role), entry in results.datasets.items():
+        if entry.get("kind") == "real_pair" and role in ("model", "query"):
+            scans.setdefault(spec, {})[role] = entry
+    return {spec: (s["model"], s["query"]) for spec, s in scans.items() if len(s) == 2}
+
+
+def real_pairs_lines(results):
+    """Per real pair, its scans as loaded: points kept and read, dropped by kind, units, the query's pose."""
+    lines = ["| pair (model <- query) | points kept (model / query) | read | dropped non-finite | dropped (0,0,0) | "
+             "units in the files | query placed by |", "|---|---|---|---|---|---|---|"]
+    for pair, (model, query) in real_pair_scans(results).items():
+        files = f" ({model['file']} <- {query['file']})" if model.get("file") and query.get("file") else ""
+        lines.append(f"| `{pair}`{files} | {_both(model, query, 'points')} | {_both(model, query, 'n_read')} | "
+                     f"{_both(model, query, 'n_non_finite')} | {_both(model, query, 'n_zero')} | "
+                     f"{_cell(model.get('units') or NOT_RECORDED)} | {_placed_text(query)} |")
+    return lines
+
+
+def _placed_text(query):
+    placed = query.get("placed_by")
+    if placed is None:
+        return NOT_RECORDED
+    return placed if placed == "identity" else f"`{placed}`"
+
+
+def _length_text(metres):
+    if metres < 0.01:
+        return f"{metres * 1e3:.2g} mm"
+    return f"{metres * 1e2:.2g} cm" if metres < 1 else f"{metres:.3g} m"
+
+
+def _schedule_text(settings):
+    start, factor = settings.get("max_dist_start_m"), settings.get("max_dist_factor")
+    if start is None or factor is None:
+        return NOT_RECORDED
+    text = f"{start:g} m fixed" if factor == 1 else f"{start:g} -> {settings.get('max_dist_floor_m', 0):g} m, x{factor:g}"
+    if settings.get("max_iterations") is not None:
+        text += f", at most {settings['max_iterations']} iterations"
+    stride = settings.get("query_stride") or 1
+    return text + (f", query stride {stride}" if stride > 1 else "")
+
+
+def _start_text(settings):
+    pose = settings.get("initial_pose")
+    if not isinstance(pose, list):
+        return NOT_RECORDED
+    identity = all(pose[r][c] == (1.0 if r == c else 0.0) for r in range(4) for c in range(4))
+    return "identity" if identity else "the pair's initial pose"
+
+
+def icp_accuracy_lines(results):
+    """Per pair of the accuracy experiment: the settings, the start, the iterations and the final pose's error."""
+    lines = ["| pair | adapter | settings | start | iterations | error vs reference (translation / rotation) |",
+             "|---|---|---|---|---|---|"]
+    for run in [r for r in results.icp if fig_icp.is_accuracy_run(r)]:
+        settings = run.settings or {}
+        iterations = "-" if run.iterations is None else f"{run.iterations:g}" + (
+            " (not converged)" if run.converged is False else "")
+        error = ("no reference" if run.ref_translation_error_m is None or run.ref_rotation_error_deg is None else
+                 f"{_length_text(run.ref_translation_error_m)} / {run.ref_rotation_error_deg:.2g} deg")
+        lines.append(f"| {run.pair} | {run.adapter} | {_schedule_text(settings)} | {_start_text(settings)} | "
+                     f"{iterations} | {error} |")
+    return lines
+
+
 TABLES = {"table1": table1_lines, "icp_ranking": icp_lines, "micro_nns": micro_lines,
-          "micro_nns_times": micro_times_lines, "scale": scale_lines, "findings": findings_lines}
+          "micro_nns_times": micro_times_lines, "scale": scale_lines, "findings": findings_lines,
+          "reference_runs": reference_runs_lines, "real_pairs": real_pairs_lines, "icp_accuracy": icp_accuracy_lines}
 
 
 def generate(results, name):

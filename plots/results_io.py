@@ -20,8 +20,13 @@ SweepCell = namedtuple("SweepCell", "model query adapter search strategy max_dis
 Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points file", defaults=(None,))
 # Google Benchmark micro-benchmarks (bench/micro_nns): the fastest repetition's CPU time of one call.
 MicroCell = namedtuple("MicroCell", "pair adapter variant max_dist_m cpu_seconds n_queries")
+# ref_*: the final pose's error against the pair's reference (None without one); settings: ICP_SETTINGS and
+# initial_pose as the record gives them.
 IcpRun = namedtuple("IcpRun", "experiment pair adapter search bucket_size icp_seconds build_seconds nns_seconds "
-                              "iterations converged")
+                              "iterations converged ref_translation_error_m ref_rotation_error_deg settings",
+                    defaults=(None, None, None))
+ICP_SETTINGS = ("max_dist_start_m", "max_dist_factor", "max_dist_floor_m", "max_iterations", "query_stride",
+                "initial_pose")
 
 
 _WARNED = set()
@@ -74,6 +79,7 @@ class Results:
         self.build_skips = {}  # (model, adapter) -> reason the build did not run
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
         self.duplicates = {}  # record name -> [paths of every file holding it], when more than one
+        self.datasets = {}   # (spec, role) -> a context.datasets entry: the last file's (newest with prefer)
 
     def adapter_info(self, name):
         return self.adapters.get(name, {})
@@ -144,7 +150,9 @@ def _read_icp(results, rec, experiment):
     results.icp.append(IcpRun(rec.get("experiment") or experiment, pair, adapter, rec.get("search"),
                               _number(rec.get("bucket_size")), icp_seconds, _number(rec.get("build_seconds")),
                               _number(rec.get("nns_seconds")), _number(rec.get("iterations")),
-                              converged if isinstance(converged, bool) else None))
+                              converged if isinstance(converged, bool) else None,
+                              _number(rec.get("ref_translation_error_m")), _number(rec.get("ref_rotation_error_deg")),
+                              {k: rec[k] for k in ICP_SETTINGS if k in rec}))
     results._note_adapter(rec)
 
 
@@ -287,8 +295,9 @@ def load(paths, prefer=None):
         for name, info in (context.get("adapters") or {}).items():
             if isinstance(info, dict):
                 results.adapters.setdefault(name, {}).update({k: v for k, v in info.items() if v is not None})
-        sizes = {(d.get("spec"), d.get("role")): _number(d.get("points"))
-                 for d in (context.get("datasets") or []) if isinstance(d, dict)}
+        datasets = {(d.get("spec"), d.get("role")): d for d in (context.get("datasets") or []) if isinstance(d, dict)}
+        results.datasets.update(datasets)
+        sizes = {key: _number(d.get("points")) for key, d in datasets.items()}
         micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) == "micro"]
         for rec in micro:
             if rec.get("run_type") != "aggregate":

@@ -122,6 +122,25 @@ class Answers(unittest.TestCase):
         for key, answer in answers.items():
             self.assertEqual(answer, reference, key)
 
+    def test_describe_real_pairs_counts_every_scan_as_the_manifest_does(self):
+        real_data.skip_unless_present(self)
+        out = os.path.join(self.dir, "pairs.json")
+        result = run("--describe-real-pairs", out)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with open(out) as f:
+            doc = json.load(f)
+        with open(os.path.join(real_data.SOURCE, "datasets", "manifest.json")) as f:
+            manifest = {p["name"]: p for p in json.load(f)["pairs"]}
+        scans = doc["context"]["datasets"]
+        self.assertEqual(len(scans), 2 * len(manifest))
+        for s in scans:
+            listed = manifest[s["spec"]][s["role"]]
+            self.assertEqual((s["file"], s["n_read"]), (listed["file"], listed["points"]))
+            self.assertEqual(s["points"] + s["n_non_finite"] + s["n_zero"], s["n_read"])
+            self.assertEqual(s["n_dropped"], s["n_non_finite"] + s["n_zero"])
+        self.assertIn("--describe-real-pairs", doc["context"]["command_line"])
+        self.assertEqual(doc["benchmarks"], [])
+
     def test_a_strategy_the_adapter_lacks_is_refused_with_one_line(self):
         for adapter, args, words in (("vtk_kdtree", ["--strategy", "native"], "offers"),
                                      ("brute_force", ["--strategy", "sideways"], "unknown strategy"),

@@ -68,6 +68,8 @@ NamedCloud from_loaded(LoadedPoints loaded) {
   cloud.points = std::move(loaded.points);
   cloud.n_read = loaded.n_read;
   cloud.n_dropped = loaded.n_non_finite + loaded.n_zero;
+  cloud.n_non_finite = loaded.n_non_finite;
+  cloud.n_zero = loaded.n_zero;
   return cloud;
 }
 

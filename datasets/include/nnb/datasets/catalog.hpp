@@ -33,6 +33,8 @@ struct NamedCloud {
   Cloud points;             ///< metres, invalid points dropped
   std::size_t n_read = 0;   ///< points in the source before dropping
   std::size_t n_dropped = 0;///< non-finite or (0,0,0) placeholder points dropped (simulated: rays without return)
+  std::size_t n_non_finite = 0;  ///< of those, with a NaN or infinite coordinate (files only)
+  std::size_t n_zero = 0;        ///< of those, exact (0,0,0) placeholders (files only)
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  ///< applied to the points (query of a real pair)
 };
 

@@ -1,0 +1,99 @@
+"""readme_tables.py's generated tables on fixture results: the reference runs' provenance, the real pairs'
+scans and the ICP accuracy run."""
+import json
+import tempfile
+import unittest
+from pathlib import Path
+
+import fixtures
+
+import readme_tables  # noqa: E402
+import results_io  # noqa: E402
+
+IDENTITY = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+MOVED = [[1.0, 0.0, 0.0, 0.5], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+
+
+def scan(pair, role, points, n_non_finite=0, n_zero=0, **extra):
+    return {"spec": pair, "role": role, "kind": "real_pair", "file": f"{pair}-{role}.pcd", "points": points,
+            "n_read": points + n_non_finite + n_zero, "n_dropped": n_non_finite + n_zero,
+            "n_non_finite": n_non_finite, "n_zero": n_zero, "units": "m", **extra}
+
+
+def accuracy_record(pair, initial, error_m, error_deg, converged=True, **settings):
+    return {"name": f"icp/{pair}/nanoflann_kdtree/bucket:10", "pair": pair, "adapter": "nanoflann_kdtree",
+            "bucket_size": 10, "icp_seconds": 1.0, "real_time": 1.0, "time_unit": "s", "iterations": 12,
+            "converged": converged, "max_dist_start_m": 1.0, "max_dist_factor": 0.8, "max_dist_floor_m": 0.2,
+            "max_iterations": 50, "query_stride": 1, "initial_pose": initial, "final_pose": IDENTITY,
+            "ref_translation_error_m": error_m, "ref_rotation_error_deg": error_deg, **settings}
+
+
+class ReadmeTablesTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.dir = Path(self.tmp.name)
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def write(self, name, context, records=()):
+        path = self.dir / name
+        path.write_text(json.dumps({"context": context, "benchmarks": list(records)}))
+        return path
+
+    def test_reference_runs_say_what_each_file_records_and_not_recorded_otherwise(self):
+        new = fixtures.context("quick", date="2024-01-02T00:00:00", wall_seconds=300.0,
+                               commit=fixtures.CLEAN_COMMIT + "+dirty")
+        old = {"date": "2024-01-01T00:00:00", "nnb_experiment": "icp_real", "load_avg": [1.5, 1.0, 1.0]}
+        results = results_io.load([self.write("new.json", new), self.write("old.json", old)])
+        lines = readme_tables.reference_runs_lines(results)
+        self.assertEqual(len(lines), 4)
+        self.assertEqual(lines[2], f"| `{self.dir / 'old.json'}` | icp_real | not recorded | not recorded | "
+                                   "1.50 -> not recorded | 2024-01-01T00:00:00 | not recorded |")
+        self.assertEqual(lines[3], f"| `{self.dir / 'new.json'}` | quick | `run_sweep --experiment quick` | "
+                                   "0123456 (dirty) | 0.10 -> 0.20 | 2024-01-02T00:00:00 | 5 min |")
+
+    def test_real_pairs_row_per_pair_from_the_datasets_context(self):
+        context = {"date": "2024-01-01T00:00:00", "datasets": [
+            scan("kinect", "model", 1000, n_non_finite=20), scan("kinect", "query", 990, n_non_finite=30,
+                                                                  placed_by="identity"),
+            scan("velodyne", "model", 5000, n_zero=7), scan("velodyne", "query", 5100, n_zero=9,
+                                                            placed_by="relative.txt"),
+            {"spec": "hollow_cube", "role": "model", "kind": "synthetic", "points": 60000}]}
+        lines = readme_tables.real_pairs_lines(results_io.load([self.write("pairs.json", context)]))
+        self.assertEqual(lines[2:], [
+            "| `kinect` (kinect-model.pcd <- kinect-query.pcd) | 1,000 / 990 | 1,020 / 1,020 | 20 / 30 | 0 / 0 | m | "
+            "identity |",
+            "| `velodyne` (velodyne-model.pcd <- velodyne-query.pcd) | 5,000 / 5,100 | 5,007 / 5,109 | 0 / 0 | 7 / 9 | "
+            "m | `relative.txt` |"])
+
+    def test_real_pairs_fields_an_older_file_lacks_are_not_recorded(self):
+        entries = [{"spec": "sick", "role": role, "kind": "real_pair", "points": 81360, "n_read": 81360}
+                   for role in ("model", "query")]
+        lines = readme_tables.real_pairs_lines(results_io.load([self.write("sweep.json", {"datasets": entries})]))
+        self.assertEqual(lines[2:], ["| `sick` | 81,360 / 81,360 | 81,360 / 81,360 | not recorded | not recorded | "
+                                     "not recorded | not recorded |"])
+
+    def test_icp_accuracy_reads_the_accuracy_experiment_only(self):
+        records = [accuracy_record("velodyne", IDENTITY, 0.011, 0.35),
+                   accuracy_record("sick", MOVED, 0.00009, 0.0015, max_dist_factor=1.0, query_stride=8),
+                   accuracy_record("kitti", IDENTITY, 0.24, 0.11, converged=False)]
+        timing = [accuracy_record("velodyne", IDENTITY, 0.5, 5.0)]
+        results = results_io.load([self.write("acc.json", {"experiment": "icp_accuracy"}, records),
+                                   self.write("real.json", {"experiment": "icp_real"}, timing)])
+        self.assertEqual(readme_tables.icp_accuracy_lines(results)[2:], [
+            "| velodyne | nanoflann_kdtree | 1 -> 0.2 m, x0.8, at most 50 iterations | identity | 12 | 1.1 cm / 0.35 deg |",
+            "| sick | nanoflann_kdtree | 1 m fixed, at most 50 iterations, query stride 8 | the pair's initial "
+            "pose | 12 | 0.09 mm / 0.0015 deg |",
+            "| kitti | nanoflann_kdtree | 1 -> 0.2 m, x0.8, at most 50 iterations | identity | 12 (not converged) | "
+            "24 cm / 0.11 deg |"])
+
+    def test_accuracy_runs_stay_out_of_the_icp_timing(self):
+        import fig_icp
+        records = [accuracy_record("velodyne", IDENTITY, 0.011, 0.35)]
+        results = results_io.load([self.write("acc.json", {"experiment": "icp_accuracy"}, records)])
+        self.assertEqual(fig_icp.real_times(results), {})
+
+
+if __name__ == "__main__":
+    unittest.main()
