@@ -173,7 +173,8 @@ def _read_micro(results, rec):
         max_dist = float(parts[3])
     except ValueError:
         return
-    results.micro.append(MicroCell(parts[1], adapter, variant.rstrip("]") or None, max_dist, seconds, None))
+    n_queries = _number(rec.get("items_per_call"))
+    results.micro.append(MicroCell(parts[1], adapter, variant.rstrip("]") or None, max_dist, seconds, n_queries))
 
 
 def micro_cells(results, variants=False):
@@ -184,6 +185,11 @@ def micro_cells(results, variants=False):
             key = (c.pair, c.adapter if c.variant is None else f"{c.adapter}[{c.variant}]", c.max_dist_m)
             best[key] = min(best.get(key, math.inf), c.cpu_seconds)
     return best
+
+
+def micro_queries(results):
+    """{pair: queries a call answers}, where micro_nns recorded it (items_per_call)."""
+    return {c.pair: c.n_queries for c in results.micro if c.n_queries}
 
 
 def latest_builds(results):
