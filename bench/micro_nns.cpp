@@ -14,6 +14,7 @@
 // results and --benchmark_filter to run part of it (what did not run prints as "not run").
 #include "cli_common.hpp"
 #include "icp.hpp"
+#include "machine.hpp"
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/datasets/synthetic.hpp"
 #include "nnb/registry.hpp"
@@ -482,11 +483,21 @@ std::optional<int> take_shared_options(int& argc, char** argv) {
   return std::nullopt;
 }
 
+// What this project's results files record of a run, in Google Benchmark's context (its own has no commit).
+void add_provenance() {
+  const nnb::bench::BuildInfo build = nnb::bench::read_build_info();
+  benchmark::AddCustomContext("git_commit", build.git_commit);
+  benchmark::AddCustomContext("command_line", nnb::bench::read_run_info().command_line);
+  benchmark::AddCustomContext("nnb_build_type", build.build_type + (build.sanitizers ? "+sanitizers" : ""));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  nnb::bench::mark_run_start(argc, argv);
   if (const auto code = take_shared_options(argc, argv)) return *code;
   benchmark::Initialize(&argc, argv);
+  add_provenance();
   if (argc > 1) {
     std::cerr << "micro_nns: error: unknown option '" << argv[1] << "' (see --help)\n";
     return 2;

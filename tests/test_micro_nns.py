@@ -2,9 +2,12 @@
 """micro_nns on part of its benchmarks: every target it ran is judged PASS or MISS, the rest "not run".
 
 Usage: test_micro_nns.py MICRO_NNS. Never a timing: the verdicts themselves may go either way."""
+import json
+import os
 import re
 import subprocess
 import sys
+import tempfile
 
 FILTER = ("^(IcpStep/fig3|Build/fig3/(ours_kdtree|nanoflann_kdtree)"
           "|Ranged1NN/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)/0.10)$")
@@ -12,10 +15,15 @@ VERDICT = r"(PASS|MISS)"
 
 
 def main(micro_nns):
-    proc = subprocess.run([micro_nns, "--benchmark_min_time=0.01", f"--benchmark_filter={FILTER}"],
+    out_json = os.path.join(tempfile.mkdtemp(), "micro.json")
+    proc = subprocess.run([micro_nns, "--benchmark_min_time=0.01", f"--benchmark_filter={FILTER}",
+                           f"--benchmark_out={out_json}", "--benchmark_out_format=json"],
                           capture_output=True, text=True, timeout=280)
     out = proc.stdout
     failures = []
+    context = json.load(open(out_json))["context"] if os.path.exists(out_json) else {}
+    if "git_commit" not in context or "micro_nns" not in context.get("command_line", ""):
+        failures.append(f"the results file's context lacks the commit or the command line: {context}")
     if proc.returncode != 0:
         failures.append(f"exit {proc.returncode}: {proc.stderr[-500:]}")
     # The ranged row: both targets judged (2x the faster nanoflann; under 100 ns at 0.1 m on fig3).
