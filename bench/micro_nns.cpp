@@ -235,17 +235,15 @@ Subjects subjects() {
     if (built_in(name)) all.fig3_and_sick.push_back({name, name, {}});
     else skipped.push_back(name);
   }
-  if (built_in("ours_kdtree")) {
-    all.fig3_and_sick.push_back({"ours_kdtree[float]", "ours_kdtree", {{"scalar", "float"}}});
-    for (const char* bucket : {"8", "16", "32", "64", "96"}) {
-      all.fig3_and_sick.push_back({std::string("ours_kdtree[b") + bucket + "]", "ours_kdtree", {{"bucket_size", bucket}}});
-    }
-  }
-  if (built_in("ours_octree")) {
-    all.fig3_and_sick.push_back({"ours_octree[float]", "ours_octree", {{"scalar", "float"}}});
-    for (const char* leaf : {"16", "32", "48", "64", "96", "128"}) {
-      all.fig3_and_sick.push_back(
-          {std::string("ours_octree[p") + leaf + "]", "ours_octree", {{"max_points_per_leaf", leaf}}});
+  // Each tree's bucket parameter as it declares it, with the sizes worth comparing with its default.
+  const std::pair<const char*, std::vector<const char*>> variants[] = {
+      {"ours_kdtree", {"8", "16", "32", "64", "96"}}, {"ours_octree", {"16", "32", "48", "64", "96", "128"}}};
+  for (const auto& [name, sizes] : variants) {
+    if (!built_in(name)) continue;
+    all.fig3_and_sick.push_back({std::string(name) + "[float]", name, {{"scalar", "float"}}});
+    const std::string bucket = nnb::make_adapter(name, {})->info().bucket->name;
+    for (const char* size : sizes) {
+      all.fig3_and_sick.push_back({std::string(name) + "[" + bucket + "=" + size + "]", name, {{bucket, size}}});
     }
   }
   std::cerr << "micro_nns: skipped (not built in):";

@@ -33,7 +33,7 @@ def claim6(results, lo=5, hi=20):
     title = f"A bucket size between {lo} and {hi} is optimal for ICP"
     numbers, good, tested = [], 0, 0
     for pair, curves in sorted(bucket_curves(results).items()):
-        for (adapter, search), points in sorted(curves.items(), key=lambda kv: (kv[0][0], kv[0][1] or "")):
+        for adapter, points in sorted(curves.items()):
             sizes = sorted(points)
             if not any(lo <= b <= hi for b in sizes) or all(lo <= b <= hi for b in sizes):
                 numbers.append(f"{pair} {adapter}: sizes {sizes} do not straddle {lo}-{hi}, not counted")
@@ -41,7 +41,7 @@ def claim6(results, lo=5, hi=20):
             best = min(sizes, key=points.get)
             tested += 1
             good += lo <= best <= hi
-            numbers.append(f"{pair} {adapter}{' ' + search if search else ''}: best bucket {best:g} "
+            numbers.append(f"{pair} {adapter}: best bucket {best:g} "
                            f"({points[best]:.4g} s; range {min(points.values()):.4g}-{max(points.values()):.4g} s)")
     if tested == 0:
         return Verdict(6, title, UNTESTED, rule, numbers or ["no ICP bucket-size runs (needs an ICP bucket results file)"],

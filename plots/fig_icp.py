@@ -22,21 +22,19 @@ def is_accuracy_run(run):
     return bool(run.experiment) and run.experiment.startswith("icp_accuracy")
 
 
-def icp_label(adapter, search, results):
-    info = results.adapter_info(adapter)
-    kind = f" — {search}" if search else ""
-    strategy = info.get(search) if search else None
-    if strategy and strategy != "native":
-        kind += " " + style.STRATEGY_TEXT.get(strategy, strategy)
+def icp_label(adapter, results):
+    """ICP searches ranged 1-NN: the label says how the adapter answers it when not natively."""
+    strategy = results.adapter_info(adapter).get("ranged")
+    kind = f" — {style.STRATEGY_TEXT.get(strategy, strategy)}" if strategy and strategy != "native" else ""
     return style.library_label(adapter, results) + kind
 
 
 def bucket_curves(results):
-    """{pair: {(adapter, search): {bucket_size: median icp seconds}}}."""
+    """{pair: {adapter: {bucket_size: median icp seconds}}}."""
     curves = {}
     for run in results.icp:
         if is_bucket_run(run) and run.bucket_size is not None:
-            curves.setdefault(run.pair, {}).setdefault((run.adapter, run.search), {}) \
+            curves.setdefault(run.pair, {}).setdefault(run.adapter, {}) \
                   .setdefault(run.bucket_size, []).append(run.icp_seconds)
     return {p: {k: {b: median(v) for b, v in c.items()} for k, c in s.items()} for p, s in curves.items()}
 
@@ -48,11 +46,10 @@ def fig2(results, out_dir):
         return None
     fig, axes = plt.subplots(1, len(curves), figsize=(min(style.PAGE_WIDTH_IN, 9 * len(curves)), 5), squeeze=False)
     for ax, pair in zip(axes[0], sorted(curves)):
-        for (adapter, search), points in sorted(curves[pair].items(), key=lambda kv: (kv[0][0], kv[0][1] or "")):
+        for adapter, points in sorted(curves[pair].items()):
             xs = sorted(points)
-            kw = style.line_kw(adapter, search or "ranged", results.adapter_info(adapter).get(search or "ranged"),
-                               results)
-            ax.plot(xs, [points[x] for x in xs], label=icp_label(adapter, search, results), **kw)
+            kw = style.line_kw(adapter, "ranged", results.adapter_info(adapter).get("ranged"), results)
+            ax.plot(xs, [points[x] for x in xs], label=icp_label(adapter, results), **kw)
         ax.axvspan(5, 20, color="grey", alpha=0.12, label="bucket 5 to 20 (paper's optimum)")
         ax.set_xscale("log")
         sizes = sorted({b for points in curves[pair].values() for b in points})
@@ -66,11 +63,11 @@ def fig2(results, out_dir):
 
 
 def real_times(results):
-    """{pair: {(adapter, search): (median icp seconds, all converged or None, bucket size or None)}}."""
+    """{pair: {adapter: (median icp seconds, all converged or None, bucket size or None)}}."""
     runs = {}
     for run in results.icp:
         if not is_bucket_run(run) and not is_accuracy_run(run):
-            runs.setdefault(run.pair, {}).setdefault((run.adapter, run.search), []).append(run)
+            runs.setdefault(run.pair, {}).setdefault(run.adapter, []).append(run)
     out = {}
     for pair, by_key in runs.items():
         out[pair] = {}
@@ -83,13 +80,13 @@ def real_times(results):
 
 
 def ranked_pair(results, times):
-    """(exact keys fastest first, approximate keys): approximate adapters are shown but never ranked."""
-    exact = [k for k in times if not style.is_approximate(k[0], results)]
+    """(exact adapters fastest first, approximate adapters): approximate adapters are shown but never ranked."""
+    exact = [a for a in times if not style.is_approximate(a, results)]
     return sorted(exact, key=lambda k: times[k][0]), [k for k in times if k not in exact]
 
 
 def nanoflann_seconds(times):
-    return min((t for (a, _), (t, _, _) in times.items() if a == REFERENCE), default=None)
+    return times[REFERENCE][0] if REFERENCE in times else None
 
 
 def bar_text(seconds, converged, reference):
@@ -112,12 +109,12 @@ def draw_pair(ax, results, pair, times):
     reference = nanoflann_seconds(times[pair])
     for y, key in zip(ys, shown):
         seconds, converged, _ = times[pair][key]
-        colour = style.adapter_colour(key[0], results)
-        hollow = style.is_approximate(key[0], results)
+        colour = style.adapter_colour(key, results)
+        hollow = style.is_approximate(key, results)
         ax.barh(y, seconds, color="white" if hollow else colour, edgecolor=colour if hollow else "white",
                 hatch="//" if converged is False else None)
         ax.text(seconds, y, bar_text(seconds, converged, reference), va="center", fontsize=9)
-    ax.set_yticks(ys, [style.short_label(key[0], results) + bucket_text(times[pair][key][2])
+    ax.set_yticks(ys, [style.short_label(key, results) + bucket_text(times[pair][key][2])
                        + ("" if key in best else ", not ranked") for key in shown])
     ax.set_xlim(0, 2.35 * max(times[pair][k][0] for k in shown))
     ax.set_xlabel("ICP time (s), construction excluded")

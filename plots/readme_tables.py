@@ -31,7 +31,7 @@ def icp_lines(results, shown=3):
     lines = ["| pair | fastest | second | third | nanoflann | fastest vs nanoflann |", "|---|---|---|---|---|---|"]
     for pair, times in sorted(fig_icp.real_times(results).items()):
         ranked, _ = fig_icp.ranked_pair(results, times)
-        cells = [f"{k[0]} {times[k][0]:.2f} s" + ("" if times[k][1] is not False else " (not converged)")
+        cells = [f"{k} {times[k][0]:.2f} s" + ("" if times[k][1] is not False else " (not converged)")
                  for k in ranked[:shown]]
         cells += ["-"] * (shown - len(cells))
         ref = fig_icp.nanoflann_seconds(times)

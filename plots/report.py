@@ -95,10 +95,10 @@ def build_figure(results):
 def icp_figure(results):
     times = fig_icp.real_times(results)
     traces = []
-    adapters = sorted({a for by in times.values() for a, _ in by}, key=lambda a: (style.family(a), a))
+    adapters = sorted({a for by in times.values() for a in by}, key=lambda a: (style.family(a), a))
     pairs = sorted(times)
     for adapter in adapters:
-        keys = [(p, k) for p in pairs for k in times[p] if k[0] == adapter]
+        keys = [(p, adapter) for p in pairs if adapter in times[p]]
         traces.append(dict(type="bar", x=[p for p, _ in keys], y=[times[p][k][0] for p, k in keys],
                            name=style.short_label(adapter, results),
                            marker=dict(color=style.adapter_colour(adapter, results)),
@@ -112,10 +112,10 @@ def icp_figure(results):
 def bucket_figure(results):
     traces = []
     for pair, curves in sorted(fig_icp.bucket_curves(results).items()):
-        for (adapter, search), points in sorted(curves.items(), key=lambda kv: (kv[0][0], kv[0][1] or "")):
+        for adapter, points in sorted(curves.items()):
             xs = sorted(points)
             traces.append(trace(xs, [points[x] for x in xs], f"{pair}: {adapter}", adapter, results,
-                                search or "ranged", results.adapter_info(adapter).get(search or "ranged")))
+                                "ranged", results.adapter_info(adapter).get("ranged")))
     return figure(traces, "ICP time against bucket size", "bucket size (points per leaf)", "ICP time (s)",
                   log_y=False, log_x=True)
 
@@ -207,7 +207,7 @@ def adapter_html(results, name):
     info = results.adapter_info(name)
     fields = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(str(v))}</td></tr>" for k, v in sorted(info.items()))
     builds = sorted((b.model, b.build_seconds) for b in results_io.latest_builds(results).values() if b.adapter == name)
-    icp = {pair: t for pair, by in fig_icp.real_times(results).items() for (a, _), (t, *_) in by.items() if a == name}
+    icp = {pair: by[name][0] for pair, by in fig_icp.real_times(results).items() if name in by}
     text = "".join(f"<li>build on {html.escape(m)}: {s:.4g} s</li>" for m, s in builds)
     text += "".join(f"<li>ICP on {html.escape(p)}: {t:.3g} s</li>" for p, t in sorted(icp.items()))
     return (f"<section id='adapter-{html.escape(name)}'><h3>{html.escape(name)}"

@@ -22,7 +22,7 @@ Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points fi
 MicroCell = namedtuple("MicroCell", "pair adapter variant max_dist_m cpu_seconds n_queries")
 # ref_*: the final pose's error against the pair's reference (None without one); settings: ICP_SETTINGS and
 # initial_pose as the record gives them.
-IcpRun = namedtuple("IcpRun", "experiment pair adapter search bucket_size icp_seconds build_seconds nns_seconds "
+IcpRun = namedtuple("IcpRun", "experiment pair adapter bucket_size icp_seconds build_seconds nns_seconds "
                               "iterations converged ref_translation_error_m ref_rotation_error_deg settings",
                     defaults=(None, None, None))
 ICP_SETTINGS = ("max_dist_start_m", "max_dist_factor", "max_dist_floor_m", "max_iterations", "query_stride",
@@ -147,7 +147,7 @@ def _read_icp(results, rec, experiment):
         warn(f"icp record {rec.get('name')!r} lacks pair/adapter/icp_seconds or was skipped: ignored")
         return
     converged = rec.get("converged")
-    results.icp.append(IcpRun(rec.get("experiment") or experiment, pair, adapter, rec.get("search"),
+    results.icp.append(IcpRun(rec.get("experiment") or experiment, pair, adapter,
                               _number(rec.get("bucket_size")), icp_seconds, _number(rec.get("build_seconds")),
                               _number(rec.get("nns_seconds")), _number(rec.get("iterations")),
                               converged if isinstance(converged, bool) else None,
@@ -323,7 +323,7 @@ def load(paths, prefer=None):
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
     results.sweep = _one_k(_last_wins(results.sweep,
                                       lambda c: (c.model, c.query, c.adapter, c.search, c.strategy, c.max_dist_m, c.k)))
-    results.icp = _last_wins(results.icp, lambda r: (r.experiment, r.pair, r.adapter, r.search, r.bucket_size))
+    results.icp = _last_wins(results.icp, lambda r: (r.experiment, r.pair, r.adapter, r.bucket_size))
     return results
 
 
