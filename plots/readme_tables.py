@@ -4,6 +4,7 @@
 Each table sits between `<!-- generated: NAME -->` and `<!-- end -->` in README.md; --write replaces the
 blocks, --check exits 1 (and prints what differs) when the README's copy is not what the results give."""
 import argparse
+import json
 import difflib
 import re
 import sys
@@ -17,7 +18,7 @@ import findings  # noqa: E402
 import provenance  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
-from table1 import table1_lines  # noqa: E402
+from table1 import HEADER, adapter_lines, table1_lines  # noqa: E402
 
 README = results_io.REPO_ROOT / "README.md"
 BLOCK = re.compile(r"(<!-- generated: (?P<name>[a-z0-9_]+) -->\n)(?P<body>.*?)(<!-- end -->)", re.S)
@@ -233,7 +234,17 @@ def icp_accuracy_lines(results):
     return lines
 
 
-TABLES = {"table1": table1_lines, "icp_ranking": icp_lines, "micro_nns": micro_lines,
+def registry_table1_lines(_results, path=None):
+    """Table 1 for every adapter the build declares: results/reference/registry/adapters.json is what
+    `nns_query --list --json` printed (a committed file, so that the check needs no build)."""
+    path = Path(path or results_io.REPO_ROOT / "results" / "reference" / "registry" / "adapters.json")
+    if not path.is_file():
+        return list(HEADER)
+    return adapter_lines(json.loads(path.read_text()))
+
+
+TABLES = {"table1": table1_lines, "table1_registry": registry_table1_lines, "icp_ranking": icp_lines,
+          "micro_nns": micro_lines,
           "micro_nns_times": micro_times_lines, "scale": scale_lines, "findings": findings_lines,
           "reference_runs": reference_runs_lines, "real_pairs": real_pairs_lines, "icp_accuracy": icp_accuracy_lines}
 

@@ -95,5 +95,20 @@ class ReadmeTablesTest(unittest.TestCase):
         self.assertEqual(fig_icp.real_times(results), {})
 
 
+    def test_registry_table1_has_a_row_per_declared_adapter(self):
+        declared = {"b_tree": {"library": "B", "version": "2", "structure": "k-d tree", "scalar": "float",
+                               "exact": True, "knn": "native", "radius": "native", "ranged": "via_knn",
+                               "ranged_strategies": ["via_knn", "via_radius"], "params": {"leaf": "8"}},
+                    "a_scan": {"library": "A", "version": "1", "structure": "linear scan", "scalar": "double",
+                               "exact": False, "knn": "native", "radius": "unsupported", "ranged": "native"}}
+        path = self.dir / "adapters.json"
+        path.write_text(json.dumps(declared))
+        lines = readme_tables.registry_table1_lines(None, path)
+        self.assertEqual(len(lines), 2 + 2)
+        self.assertTrue(lines[2].startswith("| a_scan | A | 1 | linear scan | double | native | no |"), lines[2])
+        self.assertIn("**no (approximate)**", lines[2])
+        self.assertIn("leaf=8", lines[3])
+        self.assertEqual(readme_tables.registry_table1_lines(None, self.dir / "missing.json"), lines[:2])
+
 if __name__ == "__main__":
     unittest.main()
