@@ -89,9 +89,16 @@ std::vector<CacheInfo> read_cpuinfo_cache() {
   return {};
 }
 
+std::vector<double> load_average() {
+  double load[3];
+  if (getloadavg(load, 3) != 3) return {};
+  return {load[0], load[1], load[2]};
+}
+
 struct RunStart {
   std::time_t wall = std::time(nullptr);
   std::chrono::steady_clock::time_point steady = std::chrono::steady_clock::now();
+  std::vector<double> load_avg = load_average();
   std::string command_line;
 };
 
@@ -104,12 +111,6 @@ std::string shell_quoted(const std::string& word) {
   std::string quoted = "'";
   for (char c : word) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return quoted + "'";
-}
-
-std::vector<double> load_average() {
-  double load[3];
-  if (getloadavg(load, 3) != 3) return {};
-  return {load[0], load[1], load[2]};
 }
 
 }  // namespace
@@ -146,7 +147,8 @@ MachineInfo read_machine_info() {
   m.cpu_scaling_enabled = !governor.empty() && governor != "performance";
   m.caches = read_sys_caches();
   if (m.caches.empty()) m.caches = read_cpuinfo_cache();
-  m.load_avg = load_average();
+  // The load when the run started: a file written at the end must not report its own run's load as "before".
+  m.load_avg = run_start().load_avg;
   return m;
 }
 

@@ -19,7 +19,7 @@ struct MachineInfo {
   double mhz_per_cpu = 0.0;
   bool cpu_scaling_enabled = false;
   std::vector<CacheInfo> caches;  ///< of cpu0 from /sys, else /proc/cpuinfo's one (level 0), else none
-  std::vector<double> load_avg;
+  std::vector<double> load_avg;  ///< 1, 5 and 15 min load average when the run started
 };
 
 struct BuildInfo {
@@ -45,7 +45,7 @@ struct RunInfo {
 void mark_run_start(int argc, char** argv);
 /// The run so far.
 RunInfo read_run_info();
-/// Reads the machine's facts now (missing files leave fields empty); the date is the run's start.
+/// Reads the machine's facts now (missing files leave fields empty); the date and load are the run's start.
 MachineInfo read_machine_info();
 /// The facts baked into this binary at configure time, plus the git commit read at run time.
 BuildInfo read_build_info();
