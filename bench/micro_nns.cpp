@@ -1,16 +1,19 @@
 // Micro-benchmarks of our structures against the best packaged tree, through the same SearchIndex API,
-// single-threaded, and the targets they are held to (printed at the end with PASS/MISS, from this run's
-// own timings: the fastest repetition of each benchmark, CPU time):
+// single-threaded unless named threads:<n>, and the targets they are held to (printed at the end with
+// PASS/MISS, from this run's own timings: the fastest repetition of each benchmark, CPU time, or wall time
+// for threads):
 //   Ranged1NN/<pair>/<subject>/<max dist>: ranged 1-NN over all queries of a pair. Pairs: fig3 (the
 //       paper's Figure 3: hollow cube queries against a hollow sphere, 60,000 points each) and every real
 //       pair of the manifest (query at its reference pose), in file order and shuffled (<pair>_shuffled).
 //   Build/<pair>/<subject>: building the index over a pair's model (and the 16M-point simulated city scan).
+//   Ranged1NN/<pair>/<subject>/<max dist>/threads:<n>: the same on n threads (2 to --threads, default 2),
+//       wall time, on fig3 and the SICK pair in file order, for ours and the anchors.
 //   IcpStep/<pair>: what ICP does between two searches (the fit from the pairs of a 0.5 m ranged 1-NN
 //       search, then moving every query point), per correspondence.
 // Targets: ours (the faster of our k-d tree and octree) at least 2x the faster nanoflann (Debian's and,
 // when built in, the newest) at every distance on every pair in both orders; under 100 ns a query at
 // <= 0.1 m on fig3 and the SICK pair; an ICP step under 10 ns a correspondence; building at least 2x
-// faster than the faster nanoflann. Use --benchmark_out=FILE --benchmark_out_format=json for the raw
+// faster than the faster nanoflann; ours at least 1.8x faster on 2 threads than on one (wall time). Use --benchmark_out=FILE --benchmark_out_format=json for the raw
 // results and --benchmark_filter to run part of it (what did not run prints as "not run").
 #include "cli_common.hpp"
 #include "icp.hpp"
@@ -25,6 +28,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <map>
@@ -33,6 +37,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <unistd.h>
@@ -53,6 +58,7 @@ struct PairSpec {
 };
 
 const std::vector<double> kDistancesM{0.02, 0.1, 0.3, 1.0};
+constexpr double kThreadTarget = 1.8;  // wall-time speed-up of ours from 1 to 2 threads
 constexpr double kIcpStepDistM = 0.5;
 const char* const kCityScan = "city-tls-16m";
 // Ours, and the anchors they are measured against.
@@ -60,6 +66,12 @@ const std::vector<std::string> kOurs{"ours_kdtree", "ours_octree"};
 const std::vector<std::string> kAnchors{"nanoflann_kdtree", "nanoflann_latest"};
 
 // --data-dir as given (empty: the default lookup).
+// The most threads the threaded benchmarks run on (--threads).
+int& max_threads() {
+  static int threads = 2;
+  return threads;
+}
+
 std::string& data_dir() {
   static std::string dir;
   return dir;
@@ -165,10 +177,11 @@ void bench_build(benchmark::State& state, const Subject& s, const std::string& p
   state.SetItemsProcessed(state.iterations() * c.model.cols());
 }
 
-void bench_ranged(benchmark::State& state, const Subject& s, const std::string& pair, double max_dist_m) {
+void bench_ranged(benchmark::State& state, const Subject& s, const std::string& pair, double max_dist_m, int threads) {
   const Clouds& c = clouds(pair);
   if (skipped(state, c)) return;
   auto index = nnb::make_adapter(s.adapter, s.params);
+  index->set_threads(threads);
   index->build(c.model);
   nnb::Neighbours out;
   for (auto _ : state) {
@@ -178,6 +191,7 @@ void bench_ranged(benchmark::State& state, const Subject& s, const std::string& 
   state.counters["found"] = double(out.queries_with_neighbours());
   state.counters["bytes_per_point"] = double(index->index_bytes()) / double(c.model.cols());
   state.counters["items_per_call"] = double(c.queries.cols());
+  state.counters["threads_used"] = double(index->threads_used());
   state.SetItemsProcessed(state.iterations() * c.queries.cols());
 }
 
@@ -208,9 +222,13 @@ std::string distance_text(double max_dist_m) {
   return text;
 }
 
-std::string ranged_name(const std::string& pair, const std::string& label, double max_dist_m) {
-  return "Ranged1NN/" + pair + "/" + label + "/" + distance_text(max_dist_m);
+std::string ranged_name(const std::string& pair, const std::string& label, double max_dist_m, int threads = 1) {
+  const std::string name = "Ranged1NN/" + pair + "/" + label + "/" + distance_text(max_dist_m);
+  return threads == 1 ? name : name + "/threads:" + std::to_string(threads);
 }
+
+// The pairs the threaded benchmarks run on.
+bool threaded_pair(const PairSpec& pair) { return pair.name == "fig3" || pair.name == "office-sick-3dtk"; }
 
 std::string build_name(const std::string& pair, const std::string& label) { return "Build/" + pair + "/" + label; }
 
@@ -265,7 +283,16 @@ void register_all(const Subjects& all) {
       }
       for (const double d : kDistancesM) {
         ms(benchmark::RegisterBenchmark(ranged_name(p, s.label, d).c_str(),
-                                        [s, p, d](benchmark::State& st) { bench_ranged(st, s, p, d); }));
+                                        [s, p, d](benchmark::State& st) { bench_ranged(st, s, p, d, 1); }));
+      }
+    }
+    for (const Subject& s : threaded_pair(pair) ? all.everywhere : std::vector<Subject>{}) {
+      for (int t = 2; t <= max_threads(); ++t) {
+        for (const double d : kDistancesM) {  // wall time: the other threads' CPU time is not the caller's
+          ms(benchmark::RegisterBenchmark(ranged_name(p, s.label, d, t).c_str(),
+                                          [s, p, d, t](benchmark::State& st) { bench_ranged(st, s, p, d, t); })
+                 ->UseRealTime());
+        }
       }
     }
     if (!pair.shuffled) {
@@ -292,6 +319,9 @@ class RatioReporter : public benchmark::ConsoleReporter {
       const double ms = run.GetAdjustedCPUTime();
       auto it = best_ms_.find(name);
       if (it == best_ms_.end() || ms < it->second) best_ms_[name] = ms;
+      const double wall_ms = run.GetAdjustedRealTime();
+      auto wall = best_wall_ms_.find(name);
+      if (wall == best_wall_ms_.end() || wall_ms < wall->second) best_wall_ms_[name] = wall_ms;
       const auto items = run.counters.find("items_per_call");
       if (items != run.counters.end()) items_[name] = double(items->second.value);
     }
@@ -304,6 +334,13 @@ class RatioReporter : public benchmark::ConsoleReporter {
     return it->second;
   }
   // Items (queries, points or correspondences) one call handled, or nothing when it did not run.
+  // The fastest wall time (ms) of that benchmark, or nothing when it did not run.
+  std::optional<double> wall_ms(const std::string& name) const {
+    auto it = best_wall_ms_.find(name);
+    if (it == best_wall_ms_.end()) return std::nullopt;
+    return it->second;
+  }
+
   std::optional<double> items(const std::string& name) const {
     auto it = items_.find(name);
     if (it == items_.end() || !(it->second > 0)) return std::nullopt;
@@ -312,6 +349,7 @@ class RatioReporter : public benchmark::ConsoleReporter {
 
  private:
   std::map<std::string, double> best_ms_;
+  std::map<std::string, double> best_wall_ms_;
   std::map<std::string, double> items_;
 };
 
@@ -377,6 +415,31 @@ void print_ranged_targets(const RatioReporter& r, Tally& tally) {
   }
 }
 
+// Target 5: ours at least 1.8x faster on 2 threads than on one (wall time); more threads for information.
+void print_thread_targets(const RatioReporter& r, Tally& tally) {
+  if (max_threads() < 2) return;
+  std::printf("\nRanged 1-NN on threads, speed-up of the wall time over one thread (this machine reports %u hardware "
+              "threads):\n", std::thread::hardware_concurrency());
+  std::printf("%-20s %5s %8s | %8s %8s %9s %9s | %s\n", "pair", "d [m]", "threads", "kdtree", "octree", "nanoflann",
+              "latest", "ours (target 1.8x at 2)");
+  for (const PairSpec& pair : pairs()) {
+    if (!threaded_pair(pair)) continue;
+    for (const double d : kDistancesM) {
+      for (int t = 2; t <= max_threads(); ++t) {
+        auto gain = [&](const std::string& label) {
+          return ratio(r.wall_ms(ranged_name(pair.name, label, d)), r.wall_ms(ranged_name(pair.name, label, d, t)));
+        };
+        const auto kd = gain("ours_kdtree"), oc = gain("ours_octree");
+        const auto ours = kd && oc ? std::optional<double>(std::max(*kd, *oc)) : (kd ? kd : oc);
+        const std::string judged = t == 2 ? verdict(ours, kThreadTarget, true, "x", tally) : "-";
+        std::printf("%-20s %5.2f %8d | %8s %8s %9s %9s | %s\n", pair.name.c_str(), d, t, number(kd).c_str(),
+                    number(oc).c_str(), number(gain("nanoflann_kdtree")).c_str(),
+                    number(gain("nanoflann_latest")).c_str(), judged.c_str());
+      }
+    }
+  }
+}
+
 // Target 4: ICP's step between searches under 10 ns a correspondence.
 void print_icp_step_target(const RatioReporter& r, Tally& tally) {
   std::printf("\nICP step between searches (fit + moving the queries), ns per correspondence of a %.1f m search:\n",
@@ -413,6 +476,7 @@ void print_targets(const RatioReporter& r) {
                 "the anchor is Debian's nanoflann alone.\n");
   }
   print_ranged_targets(r, tally);
+  print_thread_targets(r, tally);
   print_icp_step_target(r, tally);
   print_build_targets(r, tally);
   std::printf("\nTargets: %d PASS, %d MISS, %d not run\n", tally.pass, tally.miss, tally.not_run);
@@ -465,8 +529,19 @@ std::optional<int> take_shared_options(int& argc, char** argv) {
                 << "then the targets with PASS/MISS\n"
                 << "  --version          " << "print the version, git commit and build type, and exit\n"
                 << "  --data-dir DIR     " << nnb::cli::kDataDirHelp << "\n"
+                << "  --threads N        " << "the threaded benchmarks run on 2 to N threads (default 2; 1: none)\n"
                 << "and Google Benchmark's options:\n";
       argv[kept++] = argv[i];
+    } else if (arg == "--threads" || arg.rfind("--threads=", 0) == 0) {
+      const std::string value = arg == "--threads" ? (i + 1 < argc ? argv[++i] : "") : arg.substr(std::strlen("--threads="));
+      char* end = nullptr;
+      const long threads = std::strtol(value.c_str(), &end, 10);
+      if (value.empty() || *end != '\0' || threads < 1 || threads > nnb::SearchIndex::kMaxThreads) {
+        std::cerr << "micro_nns: error: --threads needs a whole number from 1 to " << nnb::SearchIndex::kMaxThreads
+                  << " (got '" << value << "')\n";
+        return 2;
+      }
+      max_threads() = static_cast<int>(threads);
     } else if (arg == "--data-dir" || arg.rfind("--data-dir=", 0) == 0) {
       if (arg == "--data-dir" && i + 1 == argc) {
         std::cerr << "micro_nns: error: --data-dir needs a folder (see --help)\n";

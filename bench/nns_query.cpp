@@ -29,6 +29,7 @@ struct Options {
   int k = 1;
   double max_dist_m = 0.1;
   int repeat = 1;
+  int threads = 1;
   std::size_t max_neighbours = 10'000'000;
   std::vector<std::string> params;
   nnb::datasets::DataOptions data;
@@ -152,10 +153,10 @@ std::size_t queries_agreeing_with_brute_force(const Options& opt, nnb::SearchKin
   return agreeing;
 }
 
-void write_stats(const Options& opt, const nnb::AdapterInfo& info, nnb::Strategy strategy,
+void write_stats(const Options& opt, const nnb::SearchIndex& index, nnb::Strategy strategy,
                  const nnb::datasets::NamedCloud& model, const nnb::datasets::NamedCloud& query, double build_seconds,
-                 double median_seconds, const nnb::Neighbours& found, std::size_t index_bytes,
-                 std::optional<std::size_t> agreeing) {
+                 double median_seconds, const nnb::Neighbours& found, std::optional<std::size_t> agreeing) {
+  const nnb::AdapterInfo& info = index.info();
   nlohmann::json stats = {
       {"adapter", info.name},
       {"library", info.library},
@@ -172,9 +173,10 @@ void write_stats(const Options& opt, const nnb::AdapterInfo& info, nnb::Strategy
       {"build_seconds", build_seconds},
       {"query_seconds", median_seconds},
       {"repeat", opt.repeat},
+      {"threads", index.threads_used()},
       {"found", found.queries_with_neighbours()},
       {"neighbours", found.total()},
-      {"index_bytes", index_bytes},
+      {"index_bytes", index.index_bytes()},
       {"build_type", nnb::cli::build_type()},
   };
   if (agreeing) stats["agreeing_with_brute_force"] = *agreeing;
@@ -246,6 +248,7 @@ int run(const Options& opt) {
   const nnb::SearchKind kind = nnb::parse_search_kind(opt.search);
   auto index = nnb::make_adapter(opt.adapter, nnb::cli::parse_params(opt.params));
   const nnb::Strategy strategy = chosen_strategy(opt, kind, index->info());
+  index->set_threads(opt.threads);
   nnb::cli::warn_if_not_release(std::cerr);
 
   const auto model = nnb::datasets::resolve_cloud(opt.model, nnb::datasets::Role::model, opt.data);
@@ -277,12 +280,12 @@ int run(const Options& opt) {
               << " queries have the neighbour distances brute force finds\n";
   }
   if (!opt.stats.empty()) {
-    write_stats(opt, index->info(), strategy, model, query, build_seconds, median_seconds, found, index->index_bytes(),
-                agreeing);
+    write_stats(opt, *index, strategy, model, query, build_seconds, median_seconds, found, agreeing);
   }
   std::cerr << "nns_query: " << opt.adapter << " " << opt.search << ": " << found.queries_with_neighbours() << " of "
             << found.n_queries() << " queries found a neighbour; build " << build_seconds << " s, query "
-            << median_seconds << " s (median of " << opt.repeat << ")\n";
+            << median_seconds << " s (median of " << opt.repeat << ", " << index->threads_used() << " thread"
+            << (index->threads_used() == 1 ? "" : "s") << ")\n";
   return 0;
 }
 
@@ -310,6 +313,9 @@ int main(int argc, char** argv) {
   app.add_option("--max-dist", opt.max_dist_m, "Maximal distance / radius in metres")->capture_default_str();
   app.add_option("--param", opt.params, "Adapter parameter NAME=VALUE (repeatable), e.g. bucket_size=5");
   app.add_option("--out", opt.out, "CSV output file (default: standard output)");
+  app.add_option("--threads", opt.threads,
+                 "Threads each search may use (adapters that cannot share an index use one; the stats say how many)")
+      ->check(CLI::Range(1, nnb::SearchIndex::kMaxThreads));
   app.add_option("--repeat", opt.repeat, "Answer the query set N times; query_seconds is the median")
       ->capture_default_str();
   app.add_option("--stats", opt.stats, "Write JSON statistics to this file");

@@ -93,9 +93,11 @@ icp::Options options_of(const icp::Settings& s, const Eigen::Matrix4d& initial) 
   return o;
 }
 
-icp::Record run_one(const Input& in, const std::string& adapter, const nnb::Params& params, const icp::Options& options,
-                    std::size_t query_stride, int repetition) {
+icp::Record run_one(const Input& in, const std::string& adapter, const nnb::Params& params, const icp::Settings& s,
+                    const Eigen::Matrix4d& initial, int repetition) {
+  const icp::Options options = options_of(s, initial);
   auto index = nnb::make_adapter(adapter, params);
+  index->set_threads(s.threads);
   icp::Record rec;
   rec.pair = in.label;
   rec.adapter = adapter;
@@ -104,7 +106,8 @@ icp::Record run_one(const Input& in, const std::string& adapter, const nnb::Para
   if (const auto& bucket = index->info().bucket) rec.bucket_size = bucket->value;
   rec.model_points = static_cast<std::size_t>(in.model.cols());
   rec.query_points = static_cast<std::size_t>(in.query.cols());
-  rec.query_stride = query_stride;
+  rec.query_stride = s.query_stride;
+  rec.threads = index->threads_used();
   rec.options = options;
   rec.repetition = repetition;
   rec.reference = in.reference;
@@ -317,7 +320,7 @@ void run_unit(const icp::Unit& unit, const Input& in, const icp::Settings& s, Re
     progress.begin(unit.spec + " " + unit.adapter + bucket);
     icp::Record rec;
     try {
-      rec = run_one(in, unit.adapter, unit.params, options_of(s, in.initial), s.query_stride, rep);
+      rec = run_one(in, unit.adapter, unit.params, s, in.initial, rep);
     } catch (const InputError& err) {
       std::cout << "skipped " << unit.adapter << bucket << ": " << err.what() << "\n";
       progress.end(unit.cells.size() - rep, std::string("skipped: ") + err.what());
@@ -350,6 +353,7 @@ void run_units(const icp::Plan& plan, int shard, const icp::Experiment& e, const
 struct ExperimentFlags {
   std::string name, out, shard;
   std::optional<std::string> buckets_from;  ///< overrides the experiment's; "none": each adapter's default
+  std::optional<int> threads;               ///< overrides the experiment's
   bool resume = false, plan = false, plan_json = false;
 };
 
@@ -389,6 +393,10 @@ void choose_buckets(icp::Experiment& e, const ExperimentFlags& flags) {
 int run_experiment(const ExperimentFlags& flags, const ds::DataOptions& data) {
   icp::Experiment e = icp::load_experiment(experiment_path(flags.name));
   choose_buckets(e, flags);
+  if (flags.threads) {
+    e.icp.threads = *flags.threads;
+    for (auto& [pair, settings] : e.icp_by_pair) settings.threads = *flags.threads;
+  }
   const ShardSpec shard = flags.shard.empty() ? ShardSpec{} : nnb::sweep::parse_shard(flags.shard);
   const auto adapters = adapters_of(e);
   std::vector<std::string> refused;
@@ -464,6 +472,10 @@ void add_flags(CLI::App& app, ExperimentFlags& experiment, SingleRun& one) {
   app.add_option("--query-stride", s.query_stride, "use every N-th query point")->capture_default_str();
   app.add_flag_callback("--no-hints", [&s] { s.hints = false; },
                         "search without the previous neighbours as hints (adapters that use hints; same answers, slower)");
+  app.add_option("--threads", experiment.threads,
+                 "threads each search may use (default: the experiment's, else 1; adapters that cannot share an index "
+                 "use one, and each record says how many it used)")
+      ->check(CLI::Range(1, nnb::SearchIndex::kMaxThreads));
   app.add_option("--data-dir", one.data.data_dir, nnb::cli::kDataDirHelp);
   app.add_option("--points", one.data.synthetic_points, "points per synthetic set")->capture_default_str();
   app.add_option("--seed", one.data.seed, "seed of the synthetic sets")->capture_default_str();
@@ -482,9 +494,8 @@ int run_single(const SingleRun& one) {
   if (!one.initial_file.empty()) {
     in.initial = ds::load_pose(one.initial_file, ds::PoseFormat::matrix4_row_major);
   }
-  const auto rec = run_one(in, one.adapter, nnb::cli::parse_params(one.param_words),
-                           options_of(s, icp::checked_rigid(in.initial, "the initial pose " + one.initial_file)),
-                           s.query_stride, 0);
+  const auto rec = run_one(in, one.adapter, nnb::cli::parse_params(one.param_words), s,
+                           icp::checked_rigid(in.initial, "the initial pose " + one.initial_file), 0);
   print_summary(std::cout, rec, true);
   nnb::files::write_file_atomically(
       one.out_path, icp::results_json(std::vector<icp::Record>{rec}, nnb::cli::build_type(), run_context("", one.data)));
@@ -503,6 +514,7 @@ int main(int argc, char** argv) {
     add_flags(app, experiment, one);
     if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "run_icp")) return *code;
     nnb::cli::warn_if_not_release(std::cerr);
+    if (experiment.threads) one.settings.threads = *experiment.threads;
     if (!experiment.name.empty()) {
       if (!one.adapter.empty() || !one.model_spec.empty() || !one.query_spec.empty()) {
         throw InputError("--experiment takes its adapters and pairs from the file: drop --adapter/--model/--query");

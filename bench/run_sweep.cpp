@@ -32,6 +32,7 @@ struct Flags {
   std::optional<int> repetitions;
   std::optional<double> budget_s;
   std::optional<double> min_time_s;
+  std::optional<int> threads;
   std::optional<std::size_t> points;
   std::optional<double> memory_limit_gib;
   std::optional<double> cell_timeout_s;
@@ -53,6 +54,7 @@ Experiment configure(const Flags& flags, const std::vector<std::string>& all_ada
   if (flags.repetitions) e.repetitions = *flags.repetitions;
   if (flags.budget_s) e.budget_s = *flags.budget_s;
   if (flags.min_time_s) e.min_time_s = *flags.min_time_s;
+  if (flags.threads) e.threads = *flags.threads;
   if (flags.points) e.synthetic_points = *flags.points;
   if (flags.memory_limit_gib) e.memory_limit_gib = *flags.memory_limit_gib;
   if (flags.cell_timeout_s) e.cell_timeout_s = *flags.cell_timeout_s;
@@ -88,6 +90,10 @@ void add_flags(CLI::App& app, Flags& flags) {
   app.add_option("--repetitions", flags.repetitions, "timed calls per cell at most (each is a record)");
   app.add_option("--min-time", flags.min_time_s,
                  "repeat a cell until its calls took this many seconds in total, up to --repetitions (0: always all)");
+  app.add_option("--threads", flags.threads,
+                 "threads a search call may use (default 1; adapters that cannot share an index use one, "
+                 "and each record says how many it used)")
+      ->check(CLI::Range(1, nnb::SearchIndex::kMaxThreads));
   app.add_option("--budget", flags.budget_s, "seconds per call above which larger distances are skipped");
   app.add_option("--points", flags.points, "points per synthetic data set (the paper: 60000)");
   app.add_option("--memory-limit-gib", flags.memory_limit_gib,

@@ -148,6 +148,7 @@ class BoostRTree final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = Variant::name;
+    info.concurrency = Concurrency::queries;
     info.library = "Boost.Geometry";
     info.version = boost_version();
     info.structure = Variant::structure;

@@ -22,6 +22,7 @@ class BruteForce final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "brute_force";
+    info.concurrency = Concurrency::queries;
     info.library = "brute force (this project)";
     info.version = "1";
     info.structure = "linear scan";

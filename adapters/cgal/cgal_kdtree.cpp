@@ -59,6 +59,7 @@ class CgalKdTree final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "cgal_kdtree";
+    info.concurrency = Concurrency::queries;
     info.library = "CGAL";
     info.version = CGAL_VERSION_STR;
     info.structure = "k-d tree (sliding midpoint)";

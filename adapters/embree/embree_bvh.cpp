@@ -168,6 +168,7 @@ class EmbreeBvh final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "embree_bvh";
+    info.concurrency = Concurrency::queries;
     info.library = "Embree";
     info.version = RTC_VERSION_STRING;  // replaced by the run-time library's version in the constructor
     info.structure = "BVH";

@@ -54,6 +54,7 @@ class FlannKdTree final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "flann_kdtree";
+    info.concurrency = Concurrency::queries;
     info.library = "FLANN";
     info.version = FLANN_VERSION_;
     info.structure = "k-d tree";

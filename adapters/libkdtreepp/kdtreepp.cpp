@@ -112,6 +112,7 @@ class LibKdTreePP final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "kdtreepp";
+    info.concurrency = Concurrency::queries;
     info.library = "libkdtree++";
     info.version = libkdtree_version();
     info.structure = "k-d tree";

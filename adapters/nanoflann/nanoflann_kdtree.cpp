@@ -91,6 +91,7 @@ class NanoflannKdTree final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "nanoflann_kdtree";
+    info.concurrency = Concurrency::queries;
     info.library = "nanoflann";
     info.version = std::to_string((NANOFLANN_VERSION >> 8) & 0xf) + "." +
                    std::to_string((NANOFLANN_VERSION >> 4) & 0xf) + "." + std::to_string(NANOFLANN_VERSION & 0xf);

@@ -78,6 +78,7 @@ class NanoflannLatest final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "nanoflann_latest";
+    info.concurrency = Concurrency::queries;
     info.library = "nanoflann (newest release)";
     info.version = version_text();
     info.structure = "k-d tree";

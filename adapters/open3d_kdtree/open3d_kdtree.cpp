@@ -31,6 +31,7 @@ class Open3dKdTree final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "open3d_kdtree";
+    info.concurrency = Concurrency::queries;
     info.library = "Open3D";
     info.version = OPEN3D_VERSION;
     info.structure = "k-d tree (nanoflann, 15 points a leaf)";

@@ -22,6 +22,7 @@ class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "ours_kdtree";
+    info.concurrency = Concurrency::queries;
     info.library = "ours (this project, after libnabo)";
     info.version = "1";
     info.structure = "k-d tree";

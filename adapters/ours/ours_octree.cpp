@@ -22,6 +22,7 @@ class OursOctree final : public ours_rows::OursIndex<ours::Octree> {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "ours_octree";
+    info.concurrency = Concurrency::queries;
     info.library = "ours (this project, after 3DTK)";
     info.version = "1";
     info.structure = "octree";

@@ -31,6 +31,7 @@ class PclKdTree final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "pcl_kdtree";
+    info.concurrency = Concurrency::queries;
     info.library = "PCL";
     info.version = PCL_VERSION_PRETTY;
     info.structure = "k-d tree (FLANN, 15 points a leaf)";

@@ -67,6 +67,7 @@ class PclOctree final : public SearchIndex {
   static AdapterInfo describe(const Params& params, bool approximate) {
     AdapterInfo info;
     info.name = approximate ? "pcl_octree_approx" : "pcl_octree";
+    info.concurrency = Concurrency::queries;
     info.library = "PCL";
     info.version = PCL_VERSION_PRETTY;
     info.structure = "octree";

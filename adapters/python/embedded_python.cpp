@@ -97,16 +97,16 @@ Fn* omp_function(const char* name) {
 
 }  // namespace
 
-SingleOmpThread::SingleOmpThread() {
+OmpThreads::OmpThreads(int threads) {
   const auto get = omp_function<int()>("omp_get_max_threads");
   const auto set = omp_function<void(int)>("omp_set_num_threads");
   if (get && set) {
     previous_ = get();
-    set(1);
+    set(threads);
   }
 }
 
-SingleOmpThread::~SingleOmpThread() {
+OmpThreads::~OmpThreads() {
   if (previous_ > 0) omp_function<void(int)>("omp_set_num_threads")(previous_);
 }
 

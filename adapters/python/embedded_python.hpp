@@ -34,14 +34,15 @@ py::array_t<double> view_of(const Cloud& cloud);
 /// The module's __version__, else its distribution's version ("" when neither is known).
 std::string module_version(const char* module, const char* distribution);
 
-/// Runs OpenMP regions entered in its scope on one thread (pykdtree parallelises each query call over
-/// every core otherwise, with a thread team start-up of ~0.5 ms a call); restores the setting after.
-class SingleOmpThread {
+/// Runs OpenMP regions entered in its scope on the given number of threads (pykdtree parallelises each
+/// query call over every core otherwise, with a thread team start-up of ~0.5 ms a call); restores the
+/// setting after.
+class OmpThreads {
  public:
-  SingleOmpThread();
-  ~SingleOmpThread();
-  SingleOmpThread(const SingleOmpThread&) = delete;
-  SingleOmpThread& operator=(const SingleOmpThread&) = delete;
+  explicit OmpThreads(int threads);
+  ~OmpThreads();
+  OmpThreads(const OmpThreads&) = delete;
+  OmpThreads& operator=(const OmpThreads&) = delete;
 
  private:
   int previous_ = 0;

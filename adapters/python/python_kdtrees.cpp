@@ -154,7 +154,7 @@ class PythonTree : public SearchIndex {
 
 AdapterInfo describe(const std::string& name, const std::string& library, const std::string& version,
                      const std::string& structure, const Params& params, const char* bucket_name, int bucket_default,
-                     Strategy radius, Strategy ranged, std::string notes) {
+                     Strategy radius, Strategy ranged, Concurrency concurrency, std::string notes) {
   AdapterInfo info;
   info.name = name;
   info.library = library;
@@ -164,6 +164,7 @@ AdapterInfo describe(const std::string& name, const std::string& library, const 
   info.knn = Strategy::native;
   info.radius = radius;
   info.ranged = ranged;
+  info.concurrency = concurrency;
   ParamReader reader(info.name, params);
   reader.get_bucket(bucket_name, bucket_default, 1, 1 << 20, 1, 64);
   info.params = reader.finish();
@@ -178,8 +179,8 @@ class ScipyCkdTree final : public PythonTree {
  public:
   explicit ScipyCkdTree(const Params& params)
       : PythonTree(describe("scipy_ckdtree", "SciPy", NNB_SCIPY_VERSION, "k-d tree", params, "leafsize", 16,
-                            Strategy::native, Strategy::native,
-                            "cKDTree (balanced, compact nodes), workers=1; distance_upper_bound is strict: ranged "
+                            Strategy::native, Strategy::native, Concurrency::library,
+                            "cKDTree (balanced, compact nodes), workers = the threads asked for (1 by default); distance_upper_bound is strict: ranged "
                             "asks 1e-12 wider (relative and of the coordinates) and cuts at <= r; radius is "
                             "query_ball_point, widened the same way; distances recomputed in double; "
                             "embedded CPython, one call per query set"),
@@ -206,7 +207,7 @@ class ScipyCkdTree final : public PythonTree {
     {
       const Session session;
       const py::tuple found = tree().attr("query")(view_of(queries), py::arg("k") = k,
-                                                   py::arg("distance_upper_bound") = bound_m, py::arg("workers") = 1);
+                                                   py::arg("distance_upper_bound") = bound_m, py::arg("workers") = threads());
       append_index_rows<std::int64_t>(found[1], n_queries, model_size(), out);
     }
     recompute_sq_dists(model(), queries, out);
@@ -229,7 +230,7 @@ class ScipyCkdTree final : public PythonTree {
     {
       const Session session;
       const py::object found = tree().attr("query_ball_point")(
-          view_of(queries), search_bound_m(queries, radius_m), py::arg("workers") = 1,
+          view_of(queries), search_bound_m(queries, radius_m), py::arg("workers") = threads(),
           py::arg("return_sorted") = false);
       append_object_rows(found, n_queries, out);
     }
@@ -244,8 +245,8 @@ class PyKdTree final : public PythonTree {
  public:
   explicit PyKdTree(const Params& params)
       : PythonTree(describe("pykdtree", "pykdtree", NNB_PYKDTREE_VERSION, "k-d tree", params, "leafsize", 16,
-                            Strategy::via_knn, Strategy::native,
-                            "OpenMP limited to one thread around each call; distance_upper_bound is strict: "
+                            Strategy::via_knn, Strategy::native, Concurrency::library,
+                            "OpenMP limited to the threads asked for (1 by default) around each call; distance_upper_bound is strict: "
                             "ranged asks 1e-12 wider and cuts at <= r; no radius search: k-NN bounded by the "
                             "radius, k grown (at least doubled) for the queries whose rows came back full; distances recomputed "
                             "in double; node memory estimated (not exposed)"),
@@ -253,7 +254,7 @@ class PyKdTree final : public PythonTree {
 
  private:
   py::object make_tree(const py::module_& kdtree, const py::object& points) const override {
-    const python::SingleOmpThread one_thread;
+    const python::OmpThreads one_thread(1);
     return kdtree.attr("KDTree")(points, py::arg("leafsize") = info().bucket->value);
   }
 
@@ -274,7 +275,7 @@ class PyKdTree final : public PythonTree {
     if (n_queries == 0) return out.reset();
     {
       const Session session;
-      const python::SingleOmpThread one_thread;
+      const python::OmpThreads team(threads());
       py::object bound = py::none();
       if (std::isfinite(bound_m)) bound = py::float_(bound_m);
       const py::tuple found =
@@ -344,7 +345,7 @@ class SklearnTree final : public PythonTree {
  public:
   SklearnTree(const Params& params, const char* name, const char* cls, const char* structure)
       : PythonTree(describe(name, "scikit-learn", NNB_SKLEARN_VERSION, structure, params, "leaf_size", 40,
-                            Strategy::native, Strategy::via_knn,
+                            Strategy::native, Strategy::via_knn, Concurrency::single,
                             std::string(cls) +
                                 " (single-threaded); query has no distance bound: ranged is k-NN then a cut at "
                                 "<= r; query_radius is inclusive in its own rounding: asked 1e-12 wider and cut "

@@ -138,6 +138,7 @@ class SfcMorton final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "sfc_morton";
+    info.concurrency = Concurrency::queries;
     info.library = "ours (this project, after STANN)";
     info.version = "1";
     info.structure = "Morton-order space-filling curve";

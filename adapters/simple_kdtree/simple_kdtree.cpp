@@ -45,6 +45,7 @@ class SimpleKdTree final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = "simple_kdtree";
+    info.concurrency = Concurrency::queries;
     info.library = "ours (this project, after 3DTK's simple k-d tree)";
     info.version = "1";
     info.structure = "k-d tree (bounding-box centre split, pointer nodes)";

@@ -60,6 +60,8 @@ struct PointLocator {
   static constexpr const char* name = "vtk_pointlocator";
   static constexpr const char* structure = "uniform bins (hash table of id lists)";
   static constexpr int default_points_per_bucket = 3;  // vtkPointLocator's constructor
+  // Its searches fill the locator's own scratch lists: one thread at a time.
+  static constexpr Concurrency concurrency = Concurrency::single;
   static std::size_t bytes(Locator& locator, std::size_t) { return locator.table_bytes(); }
 };
 
@@ -68,6 +70,8 @@ struct StaticPointLocator {
   static constexpr const char* name = "vtk_static";
   static constexpr const char* structure = "uniform bins (ids sorted by bin)";
   static constexpr int default_points_per_bucket = 1;  // vtkStaticPointLocator's constructor
+  // VTK documents its searches as thread-safe once the locator is built (build() builds it).
+  static constexpr Concurrency concurrency = Concurrency::queries;
   // A (point id, bucket) pair per point plus one, and an offset per bucket plus one, in int or vtkIdType.
   static std::size_t bytes(Locator& locator, std::size_t n_points) {
     const std::size_t id_bytes = locator.GetLargeIds() ? sizeof(vtkIdType) : sizeof(int);
@@ -141,6 +145,7 @@ class VtkBins final : public SearchIndex {
   static AdapterInfo describe(const Params& params) {
     AdapterInfo info;
     info.name = Variant::name;
+    info.concurrency = Variant::concurrency;
     info.library = "VTK";
     info.version = vtk::vtk_version();
     info.structure = Variant::structure;

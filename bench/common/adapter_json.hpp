@@ -17,13 +17,13 @@ inline nlohmann::ordered_json strategy_names(const std::vector<Strategy>& strate
 }
 
 /// Library, version, structure, precision, exactness, the default strategy per search kind, every ranged
-/// strategy offered (the default first), the effective parameters and the adapter's notes.
+/// strategy offered (the default first), how it may use threads, the effective parameters and its notes.
 inline nlohmann::ordered_json adapter_metadata(const AdapterInfo& info) {
   return {{"library", info.library}, {"version", info.version}, {"structure", info.structure},
           {"scalar", info.scalar}, {"exact", info.exact}, {"knn", to_string(info.knn)},
           {"radius", to_string(info.radius)}, {"ranged", to_string(info.ranged)},
           {"ranged_strategies", strategy_names(info.strategies(SearchKind::ranged))},
-          {"params", info.params}, {"notes", info.notes}};
+          {"concurrency", to_string(info.concurrency)}, {"params", info.params}, {"notes", info.notes}};
 }
 
 }  // namespace nnb::bench

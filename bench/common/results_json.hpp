@@ -24,13 +24,13 @@ inline constexpr double per_second = 1e6;
 /// Google Benchmark's fields every record starts with: run_name groups a benchmark's repetitions and
 /// aggregates, run_type is "iteration" or "aggregate".
 inline ordered_json base_record(const std::string& name, const std::string& run_name, const char* run_type,
-                                int repetitions) {
+                                int repetitions, int threads) {
   ordered_json j;
   j["name"] = name;
   j["run_name"] = run_name;
   j["run_type"] = run_type;
   j["repetitions"] = repetitions;
-  j["threads"] = 1;  // every search is single-threaded
+  j["threads"] = threads;  // the threads the timed calls ran on
   return j;
 }
 

@@ -42,7 +42,7 @@ ordered_json matrix_rows(const Eigen::Matrix4d& m) {
 
 ordered_json record_json(const Record& rec) {
   const Result& res = rec.result;
-  ordered_json j = results::base_record(record_name(rec), record_name(rec), "iteration", 1);
+  ordered_json j = results::base_record(record_name(rec), record_name(rec), "iteration", 1, rec.threads);
   j["repetition_index"] = rec.repetition;
   results::put_times(j, rec.icp_seconds, rec.icp_cpu_seconds);
   j["pair"] = rec.pair;
@@ -179,7 +179,7 @@ ordered_json settings_json(const Settings& s) {
   return {{"max_dist_m", s.max_dist.start_m}, {"max_dist_factor", s.max_dist.factor},
           {"max_dist_floor_m", s.max_dist.floor_m}, {"iterations", s.max_iterations},
           {"min_translation_step_m", s.min_translation_step_m}, {"min_rotation_step_rad", s.min_rotation_step_rad},
-          {"query_stride", s.query_stride}, {"hints", s.hints}};
+          {"query_stride", s.query_stride}, {"hints", s.hints}, {"threads", s.threads}};
 }
 
 }  // namespace
@@ -248,9 +248,13 @@ Settings parse_settings(const json& j, Settings s) {
     else if (key == "min_rotation_step_rad") s.min_rotation_step_rad = value.get<double>();
     else if (key == "query_stride") s.query_stride = bench::whole_number<std::size_t>(value, "query_stride");
     else if (key == "hints") s.hints = value.get<bool>();
+    else if (key == "threads") s.threads = bench::whole_number<int>(value, "threads");
     else throw InputError("unknown ICP setting '" + key + "'");
   }
   if (s.query_stride < 1) throw InputError("query_stride must be at least 1");
+  if (s.threads < 1 || s.threads > SearchIndex::kMaxThreads) {
+    throw InputError("threads must be from 1 to " + std::to_string(SearchIndex::kMaxThreads));
+  }
   Options checked;  // refused here, before any run, not skipped run by run
   checked.max_dist = s.max_dist;
   checked.max_iterations = s.max_iterations;

@@ -21,6 +21,7 @@ struct Record {
   std::size_t model_points = 0;
   std::size_t query_points = 0;       ///< after subsampling
   std::size_t query_stride = 1;       ///< every query_stride-th query point was used
+  int threads = 1;                    ///< threads the searches ran on
   Options options;
   Result result;
   double icp_seconds = 0.0;           ///< wall time of search + estimation (construction excluded)

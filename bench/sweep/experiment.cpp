@@ -3,6 +3,7 @@
 
 #include "json_whole.hpp"
 #include "nnb/cloud.hpp"
+#include "nnb/search_index.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -137,7 +138,7 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
   if (!doc.is_object()) throw InputError(path + ": an experiment is a JSON object");
   static const std::set<std::string> known{
       "name", "description", "pairs", "grid", "real_pairs", "adapters", "searches", "strategies", "k", "dists", "repetitions",
-      "build_repetitions", "budget_seconds", "min_time_seconds", "neighbour_budget", "synthetic_points", "seed",
+      "build_repetitions", "budget_seconds", "min_time_seconds", "threads", "neighbour_budget", "synthetic_points", "seed",
       "memory_limit_gib", "skip_larger_models", "cell_timeout_seconds"};
   for (const auto& item : doc.items()) {
     if (!known.count(item.key())) throw InputError(path + ": unknown field '" + item.key() + "'");
@@ -174,6 +175,7 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
   if (doc.contains("build_repetitions")) e.build_repetitions = get_whole<int>(doc, "build_repetitions", path);
   if (doc.contains("budget_seconds")) e.budget_s = get<double>(doc, "budget_seconds", path);
   if (doc.contains("min_time_seconds")) e.min_time_s = get<double>(doc, "min_time_seconds", path);
+  if (doc.contains("threads")) e.threads = get_whole<int>(doc, "threads", path);
   if (doc.contains("neighbour_budget")) e.neighbour_budget = get_whole<std::size_t>(doc, "neighbour_budget", path);
   if (doc.contains("synthetic_points")) e.synthetic_points = get_whole<std::size_t>(doc, "synthetic_points", path);
   if (doc.contains("seed")) e.seed = get_whole<std::uint64_t>(doc, "seed", path);
@@ -215,6 +217,9 @@ void validate(const Experiment& e, const std::vector<std::string>& all_adapters)
   if (e.build_repetitions < 1) throw InputError("build repetitions must be at least 1");
   if (!(e.budget_s > 0.0)) throw InputError("the time budget must be > 0 s");
   if (!(e.min_time_s >= 0.0)) throw InputError("min_time_seconds must be >= 0 s");
+  if (e.threads < 1 || e.threads > SearchIndex::kMaxThreads) {
+    throw InputError("threads must be from 1 to " + std::to_string(SearchIndex::kMaxThreads));
+  }
   if (!(e.cell_timeout_s > 0.0)) throw InputError("the cell time-out must be > 0 s");
   if (e.synthetic_points < 1) throw InputError("synthetic data sets need at least 1 point");
   if (!std::isfinite(e.memory_limit_gib) || !(e.memory_limit_gib > 0.0)) {

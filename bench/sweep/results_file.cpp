@@ -56,6 +56,7 @@ ordered_json config_of(const RunDescription& run) {
   c["build_repetitions"] = e.build_repetitions;
   c["budget_seconds"] = e.budget_s;
   c["min_time_seconds"] = e.min_time_s;
+  c["threads"] = e.threads;
   c["neighbour_budget"] = e.neighbour_budget;
   c["synthetic_points"] = e.synthetic_points;
   c["seed"] = e.seed;
@@ -161,7 +162,7 @@ void put_cell(ordered_json& j, const Record& r) {
 }
 
 ordered_json base_record(const Record& r, const std::string& name, const char* run_type) {
-  return results::base_record(name, r.name, run_type, r.repetitions);
+  return results::base_record(name, r.name, run_type, r.repetitions, r.threads);
 }
 
 // Google Benchmark's aggregates of the repetitions: mean and median, and with two or more, stddev and cv
@@ -268,6 +269,7 @@ Record from_json(const std::vector<const json*>& group) {
   r.adapter = j.at("adapter").get<std::string>();
   r.exact = j.at("exact").get<bool>();
   r.repetitions = whole<int>(j, "repetitions");
+  r.threads = whole_or<int>(j, "threads", 1);
   r.wall = get_stats(j, "");
   r.cpu = get_stats(j, "cpu_");
   for (const json* rep : group) {

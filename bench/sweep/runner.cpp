@@ -138,6 +138,7 @@ double run_cell(const SearchIndex& index, const Cloud& queries, const Group& gro
     if (e.min_time_s > 0.0 && std::accumulate(wall.begin(), wall.end(), 0.0) >= e.min_time_s) break;
   }
   r.repetitions = static_cast<int>(wall.size());
+  r.threads = index.threads_used();
   r.wall_each_s = wall;
   r.cpu_each_s = cpu;
   r.wall = stats_of(wall);
@@ -233,6 +234,7 @@ std::unique_ptr<SearchIndex> build_index(const Unit& unit, const Experiment& e, 
     for (int rep = 0; rep < e.build_repetitions; ++rep) {
       index.reset();
       auto fresh = make_adapter(unit.adapter.name);
+      fresh->set_threads(e.threads);
       const double cpu0 = cpu_now_s();
       const auto t0 = std::chrono::steady_clock::now();
       fresh->build(unit.model.points);

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <system_error>
+#include <thread>
 
 namespace nnb {
 
@@ -26,6 +29,15 @@ const char* to_string(Strategy strategy) {
     case Strategy::via_radius: return "via_radius";
     case Strategy::via_box: return "via_box";
     case Strategy::unsupported: return "unsupported";
+  }
+  return "?";
+}
+
+const char* to_string(Concurrency concurrency) {
+  switch (concurrency) {
+    case Concurrency::single: return "single";
+    case Concurrency::queries: return "queries";
+    case Concurrency::library: return "library";
   }
   return "?";
 }
@@ -128,18 +140,68 @@ int SearchIndex::useful_k(int k) const {
   return static_cast<int>(std::min(static_cast<std::size_t>(k), model_size_));
 }
 
+void SearchIndex::set_threads(int threads) {
+  if (threads < 1 || threads > kMaxThreads) {
+    throw InputError(info_.name + ": threads must be from 1 to " + std::to_string(kMaxThreads) + " (got " +
+                     std::to_string(threads) + ")");
+  }
+  threads_ = threads;
+}
+
+void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const SliceAnswer& answer) const {
+  const Eigen::Index n = queries.cols();
+  const Eigen::Index most = std::max<Eigen::Index>(1, n / kMinQueriesPerThread);
+  const int slices = info_.concurrency == Concurrency::queries ? static_cast<int>(std::min<Eigen::Index>(threads_, most)) : 1;
+  if (slices == 1) {
+    answer(queries, 0, out);
+    return;
+  }
+  std::vector<Neighbours> rows(static_cast<std::size_t>(slices));
+  std::vector<std::exception_ptr> errors(static_cast<std::size_t>(slices));
+  const auto run = [&](int s) {
+    const Eigen::Index first = n * s / slices;
+    const Eigen::Index last = n * (s + 1) / slices;
+    try {
+      const Cloud slice = queries.middleCols(first, last - first);
+      answer(slice, first, rows[static_cast<std::size_t>(s)]);
+    } catch (...) {
+      errors[static_cast<std::size_t>(s)] = std::current_exception();
+    }
+  };
+  std::vector<std::thread> workers;
+  workers.reserve(static_cast<std::size_t>(slices - 1));
+  int started = 1;
+  try {
+    for (; started < slices; ++started) workers.emplace_back(run, started);
+  } catch (const std::system_error&) {
+    // No more threads to be had: this thread answers the slices left.
+  }
+  run(0);
+  for (int s = started; s < slices; ++s) run(s);
+  for (auto& worker : workers) worker.join();
+  for (const auto& error : errors) {
+    if (error) std::rethrow_exception(error);
+  }
+  std::size_t total = 0;
+  for (const auto& r : rows) total += r.total();
+  out.reset(static_cast<std::size_t>(n), total);
+  for (const auto& r : rows) append_rows(r, out);
+}
+
 void SearchIndex::knn(const Cloud& queries, int k, Neighbours& out) const {
   check_supported(SearchKind::knn);
   check_k(info_.name, k);
   check_queries(queries);
-  do_knn(queries, useful_k(k), out);
+  k = useful_k(k);
+  answer_in_slices(queries, out, [&](const Cloud& slice, Eigen::Index, Neighbours& rows) { do_knn(slice, k, rows); });
 }
 
 void SearchIndex::radius(const Cloud& queries, double radius_m, Neighbours& out) const {
   check_supported(SearchKind::radius);
   check_distance(info_.name, "radius", radius_m);
   check_queries(queries);
-  do_radius(queries, radius_m, out);
+  answer_in_slices(queries, out,
+                   [&](const Cloud& slice, Eigen::Index, Neighbours& rows) { do_radius(slice, radius_m, rows); });
 }
 
 void SearchIndex::ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
@@ -161,7 +223,11 @@ void SearchIndex::ranged_hinted(const Cloud& queries, double max_dist_m, const s
   check_supported(SearchKind::ranged);
   check_distance(info_.name, "max_dist", max_dist_m);
   check_queries(queries);
-  do_ranged_hinted(queries, max_dist_m, hints, out);
+  answer_in_slices(queries, out, [&](const Cloud& slice, Eigen::Index first, Neighbours& rows) {
+    if (slice.cols() == queries.cols()) return do_ranged_hinted(slice, max_dist_m, hints, rows);
+    const auto begin = hints.begin() + first;
+    do_ranged_hinted(slice, max_dist_m, std::vector<PointIndex>(begin, begin + slice.cols()), rows);
+  });
 }
 
 void SearchIndex::do_ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>&,
@@ -180,18 +246,20 @@ void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbo
   check_distance(info_.name, "max_dist", max_dist_m);
   check_queries(queries);
   k = useful_k(k);
-  switch (strategy) {
-    case Strategy::via_knn:
-      do_knn(queries, k, out);
-      filter_by_sq_dist(max_dist_m * max_dist_m, out);
-      return;
-    case Strategy::via_radius:
-      do_radius(queries, max_dist_m, out);
-      sort_and_truncate(static_cast<std::size_t>(k), out);
-      return;
-    default:
-      do_ranged(queries, k, max_dist_m, out);
-  }
+  answer_in_slices(queries, out, [&](const Cloud& slice, Eigen::Index, Neighbours& rows) {
+    switch (strategy) {
+      case Strategy::via_knn:
+        do_knn(slice, k, rows);
+        filter_by_sq_dist(max_dist_m * max_dist_m, rows);
+        return;
+      case Strategy::via_radius:
+        do_radius(slice, max_dist_m, rows);
+        sort_and_truncate(static_cast<std::size_t>(k), rows);
+        return;
+      default:
+        do_ranged(slice, k, max_dist_m, rows);
+    }
+  });
 }
 
 void SearchIndex::do_radius(const Cloud&, double, Neighbours&) const {
@@ -286,6 +354,13 @@ void recompute_sq_dists(const Cloud& model, const Cloud& queries, Neighbours& ou
       out.sq_dists[i] = sq_dist_m2(query, model.col(out.indices[i]).data());
     }
   }
+}
+
+void append_rows(const Neighbours& rows, Neighbours& out) {
+  const std::size_t base = out.indices.size();
+  out.indices.insert(out.indices.end(), rows.indices.begin(), rows.indices.end());
+  out.sq_dists.insert(out.sq_dists.end(), rows.sq_dists.begin(), rows.sq_dists.end());
+  for (std::size_t q = 1; q < rows.offsets.size(); ++q) out.offsets.push_back(base + rows.offsets[q]);
 }
 
 void filter_by_sq_dist(double limit_sq_m2, Neighbours& out) {

@@ -8,6 +8,7 @@
 #include "nnb/neighbours.hpp"
 
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -37,6 +38,15 @@ SearchKind parse_search_kind(const std::string& text);
 /// Parses a strategy's name as to_string writes it ("via_knn"...); throws InputError otherwise.
 Strategy parse_strategy(const std::string& text);
 
+/// Whether one built index may answer queries from several threads at once (SearchIndex::set_threads).
+enum class Concurrency {
+  single,   ///< queries share mutable state (library globals, caches, an interpreter lock): one thread
+  queries,  ///< const queries are safe side by side: the API splits a batch over the threads
+  library,  ///< the library parallelises a batch itself: the adapter hands it threads()
+};
+
+const char* to_string(Concurrency concurrency);
+
 /// Adapter parameters by name (e.g. "bucket_size" -> "10"), as given by a user or reported back.
 using Params = std::map<std::string, std::string>;
 
@@ -63,6 +73,8 @@ struct AdapterInfo {
   std::optional<BucketParam> bucket;
   /// Whether ranged_hinted() uses its hints to bound the search (else it answers as ranged() does).
   bool uses_hints = false;
+  /// How the adapter may use more than one thread; declared, and checked by the cross-check's threaded runs.
+  Concurrency concurrency = Concurrency::single;
   std::string notes;      ///< workarounds the adapter applies, in one line
 
   /// The default strategy for a kind: the library's own when it has one.
@@ -108,6 +120,18 @@ class SearchIndex {
   void ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
                      Neighbours& out) const;
 
+  /// Threads a batch may use (1 to kMaxThreads, default 1): Concurrency::queries adapters answer a batch in
+  /// that many contiguous slices, one thread each (at least kMinQueriesPerThread queries a slice), and
+  /// return the rows in the caller's order; Concurrency::library adapters hand the number to their library;
+  /// Concurrency::single adapters stay on one thread. Throws InputError outside [1, kMaxThreads].
+  void set_threads(int threads);
+  /// The threads asked for.
+  int threads() const { return threads_; }
+  /// The threads a large batch actually runs on: threads() unless the adapter is Concurrency::single.
+  int threads_used() const { return info_.concurrency == Concurrency::single ? 1 : threads_; }
+  static constexpr int kMaxThreads = 1024;
+  static constexpr Eigen::Index kMinQueriesPerThread = 256;
+
   /// Bytes the index holds beyond the model points themselves (nodes, buckets, copies).
   virtual std::size_t index_bytes() const = 0;
   /// Number of points in the model the index was built on (0 before build).
@@ -129,8 +153,13 @@ class SearchIndex {
   void check_queries(const Cloud& queries) const;
   int useful_k(int k) const;
   void check_supported(SearchKind kind) const;
+  /// Answers a batch with answer(slice, first query of the slice, rows), split over threads_used()
+  /// threads when the adapter is Concurrency::queries, and joins the rows in query order.
+  using SliceAnswer = std::function<void(const Cloud& slice, Eigen::Index first, Neighbours& rows)>;
+  void answer_in_slices(const Cloud& queries, Neighbours& out, const SliceAnswer& answer) const;
   AdapterInfo info_;
   std::size_t model_size_ = 0;
+  int threads_ = 1;
 };
 
 /// Reads typed parameters for an adapter and rejects names it does not know.
@@ -164,6 +193,8 @@ class ParamReader {
 void recompute_sq_dists(const Cloud& model, const Cloud& queries, Neighbours& out);
 /// Keeps, per query, the entries with sq_dist <= limit_sq_m2 (keeps their order).
 void filter_by_sq_dist(double limit_sq_m2, Neighbours& out);
+/// Appends rows (whole queries) after those already in out.
+void append_rows(const Neighbours& rows, Neighbours& out);
 /// Sorts each query's entries by (sq_dist, index) and keeps at most k of them.
 void sort_and_truncate(std::size_t k, Neighbours& out);
 

@@ -1,0 +1,11 @@
+#include "subjects.hpp"
+
+namespace nnb::testing {
+
+std::vector<ThreadSubject> thread_subjects() {
+  std::vector<ThreadSubject> subjects;
+  for (const AdapterEntry& entry : adapter_registry()) subjects.push_back({entry.name, entry.make});
+  return subjects;
+}
+
+}  // namespace nnb::testing

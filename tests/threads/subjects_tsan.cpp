@@ -1,0 +1,24 @@
+// ThreadSanitizer sees only instrumented code: our trees, brute force and the header-only nanoflann,
+// compiled into the test with the API that splits a batch over threads. The libraries shipped compiled
+// are checked by the same test without it (their answers on threads against one thread).
+#include "subjects.hpp"
+
+namespace nnb::adapters {
+std::unique_ptr<SearchIndex> make_brute_force(const Params& params);
+std::unique_ptr<SearchIndex> make_ours_kdtree(const Params& params);
+std::unique_ptr<SearchIndex> make_ours_octree(const Params& params);
+std::unique_ptr<SearchIndex> make_nanoflann_kdtree(const Params& params);
+std::unique_ptr<SearchIndex> make_simple_kdtree(const Params& params);
+std::unique_ptr<SearchIndex> make_sfc_morton(const Params& params);
+}  // namespace nnb::adapters
+
+namespace nnb::testing {
+
+std::vector<ThreadSubject> thread_subjects() {
+  using namespace nnb::adapters;
+  return {{"brute_force", make_brute_force},     {"ours_kdtree", make_ours_kdtree},
+          {"ours_octree", make_ours_octree},     {"nanoflann_kdtree", make_nanoflann_kdtree},
+          {"simple_kdtree", make_simple_kdtree}, {"sfc_morton", make_sfc_morton}};
+}
+
+}  // namespace nnb::testing
