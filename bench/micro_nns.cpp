@@ -315,7 +315,11 @@ class RatioReporter : public benchmark::ConsoleReporter {
     ConsoleReporter::ReportRuns(reports);
     for (const Run& run : reports) {
       if (run.run_type != Run::RT_Iteration || run.error_occurred) continue;
-      const std::string name = run.benchmark_name();
+      std::string name = run.benchmark_name();
+      const std::string wall_suffix = "/real_time";  // Google Benchmark's mark of UseRealTime
+      if (name.size() > wall_suffix.size() && name.compare(name.size() - wall_suffix.size(), wall_suffix.size(), wall_suffix) == 0) {
+        name.resize(name.size() - wall_suffix.size());
+      }
       const double ms = run.GetAdjustedCPUTime();
       auto it = best_ms_.find(name);
       if (it == best_ms_.end() || ms < it->second) best_ms_[name] = ms;

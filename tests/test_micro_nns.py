@@ -10,7 +10,7 @@ import sys
 import tempfile
 
 FILTER = ("^(IcpStep/fig3|Build/fig3/(ours_kdtree|nanoflann_kdtree)"
-          "|Ranged1NN/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)/0.10)$")
+          "|Ranged1NN/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)/0.10(/threads:2/real_time)?)$")
 VERDICT = r"(PASS|MISS)"
 
 
@@ -31,6 +31,11 @@ def main(micro_nns):
         failures.append("the fig3 0.10 m row does not judge both ranged targets")
     if not re.search(rf"^fig3 +0\.02 \|.*\| not run +\| not run$", out, re.M):
         failures.append("a distance that did not run is not marked 'not run'")
+    # The threads row: ours' speed-up from 1 to 2 threads judged, the anchor's shown.
+    if not re.search(rf"^fig3 +0\.10 +2 \| +[0-9.]+ +[0-9.]+ +[0-9.]+ .*x >= 1.8 {VERDICT}$", out, re.M):
+        failures.append("the fig3 0.10 m row on 2 threads does not judge the threads target")
+    if not re.search(r"^fig3 +0\.02 +2 \| +- +- +- +- \| not run$", out, re.M):
+        failures.append("a thread count that did not run is not marked 'not run'")
     if not re.search(rf"^fig3 +[0-9.]+ ns < 10 {VERDICT}$", out, re.M):
         failures.append("the ICP step on fig3 is not judged")
     if not re.search(rf"^fig3 +\|.*x >= 2 {VERDICT}$", out, re.M):
@@ -38,8 +43,11 @@ def main(micro_nns):
     summary = re.search(r"^Targets: (\d+) PASS, (\d+) MISS, (\d+) not run$", out, re.M)
     if not summary:
         failures.append("no summary line")
-    elif int(summary[1]) + int(summary[2]) != 4:
-        failures.append(f"expected 4 targets judged, got {summary[0]}")
+    elif int(summary[1]) + int(summary[2]) != 5:
+        failures.append(f"expected 5 targets judged, got {summary[0]}")
+    bad = subprocess.run([micro_nns, "--threads", "0"], capture_output=True, text=True, timeout=60)
+    if bad.returncode != 2 or len(bad.stderr.strip().splitlines()) != 1:
+        failures.append(f"--threads 0: exit {bad.returncode}, stderr {bad.stderr!r}")
     for f in failures:
         print("FAIL:", f)
     if failures:

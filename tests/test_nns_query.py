@@ -40,9 +40,26 @@ class Answers(unittest.TestCase):
         self.assertEqual(sorted(adapters), sorted(names))
         for name, info in adapters.items():
             for field in ("library", "version", "structure", "scalar", "exact", "knn", "radius", "ranged",
-                          "ranged_strategies", "params"):
+                          "ranged_strategies", "concurrency", "params"):
                 self.assertIn(field, info, name)
             self.assertEqual(info["ranged_strategies"][0], info["ranged"], name)
+            self.assertIn(info["concurrency"], ("single", "queries", "library"), name)
+
+    def test_threads_give_the_same_csv_and_the_stats_say_how_many_ran(self):
+        outputs = {}
+        for adapter, threads, used in (("ours_kdtree", "1", 1), ("ours_kdtree", "3", 3), ("ann_kdtree", "3", 1)):
+            if adapter not in run("--list").stdout:
+                continue
+            out, stats = os.path.join(self.dir, adapter + threads + ".csv"), os.path.join(self.dir, "s.json")
+            result = run("--adapter", adapter, "--model", "hollow_sphere", "--query", "hollow_cube", "--points", "3000",
+                         "--max-dist", "0.2", "--threads", threads, "--out", out, "--stats", stats)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            with open(stats) as f:
+                self.assertEqual(json.load(f)["threads"], used, adapter + " asked for " + threads)
+            with open(out) as f:
+                outputs[(adapter, threads)] = f.read()
+        if ("ours_kdtree", "3") in outputs:
+            self.assertEqual(outputs[("ours_kdtree", "1")], outputs[("ours_kdtree", "3")])
 
     def test_json_without_list_is_refused(self):
         result = run("--json")
@@ -206,7 +223,7 @@ class BadInput(unittest.TestCase):
                 self.assertEqual(f.read(), before)
 
     def test_command_line_errors_are_one_line_and_exit_2(self):
-        for bad in (["--k", "abc"], ["--no-such-option"]):
+        for bad in (["--k", "abc"], ["--no-such-option"], ["--threads", "0"], ["--threads", "100000"]):
             result = run(*bad)
             self.assertEqual(result.returncode, 2)
             self.assertEqual(len(result.stderr.strip().splitlines()), 1, result.stderr)

@@ -65,8 +65,21 @@ def case_cli():
     if records[0]["adapter"] != "ours_kdtree" or len(records[0]["final_pose"]) != 4:
         fail(f"record: {records[0]}")
 
+    # Threads: the same pose, the record says how many threads the searches ran on.
+    poses = {}
+    for threads in ("1", "2"):
+        proc = run(["--adapter", "ours_kdtree", "--threads", threads, "--out", str(out)] + tiny)
+        if proc.returncode != 0:
+            fail(f"--threads {threads}: exited {proc.returncode}: {proc.stderr[-2000:]}")
+        record = json.loads(out.read_text())["benchmarks"][0]
+        if record["threads"] != int(threads):
+            fail(f"--threads {threads}: the record says {record['threads']}")
+        poses[threads] = record["final_pose"]
+    if poses["1"] != poses["2"]:
+        fail(f"the pose differs on 2 threads: {poses}")
+
     # Bad input: one clear line, exit 2, no file.
-    for bad in (["--adapter", "no_such_adapter"], ["--adapter", "ours_kdtree", "--max-dist", "-1"],
+    for bad in (["--adapter", "no_such_adapter"], ["--adapter", "ours_kdtree", "--threads", "0"], ["--adapter", "ours_kdtree", "--max-dist", "-1"],
                 ["--adapter", "ours_kdtree", "--param", "bucket_size=0"]):
         bad_out = WORK / "bad.json"
         bad_out.unlink(missing_ok=True)
@@ -84,7 +97,8 @@ def case_cli():
 
     # Experiment files with values that would run nothing are refused before any run, not skipped run by run.
     for label, icp in (("zero_dist", {"max_dist_m": 0}), ("negative_iterations", {"iterations": -1}),
-                       ("negative_stride", {"query_stride": -1}), ("fractional_iterations", {"iterations": 2.5})):
+                       ("negative_stride", {"query_stride": -1}), ("fractional_iterations", {"iterations": 2.5}),
+                       ("zero_threads", {"threads": 0})):
         experiment = WORK / f"{label}.json"
         experiment.write_text(json.dumps({"name": label, "pairs": ["office-sick-3dtk"], "adapters": ["brute_force"],
                                           "icp": icp}))

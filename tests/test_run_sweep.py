@@ -194,6 +194,29 @@ def case_min_time():
     check("min_time_seconds" in proc.stderr, f"--min-time -1: {proc.stderr}")
 
 
+def case_threads():
+    """--threads: the config says how many were asked, each record how many its calls ran on; same answers."""
+    work = fresh_workdir()
+    base = ["--points", "1500", "--dists", "0:0.3:0.1", "--strategies", "default", "--repetitions", "1"]
+    listed = subprocess.run([str(Path(RUN_SWEEP).parent / "nns_query"), "--list"], capture_output=True, text=True,
+                            timeout=300).stdout
+    adapters = "brute_force,ann_kdtree" if "ann_kdtree" in listed else "brute_force"  # ANN: single-threaded
+    docs = {}
+    for threads in ("1", "3"):
+        out = work / f"threads_{threads}.json"
+        run(base + ["--adapters", adapters, "--threads", threads, "--out", str(out)])
+        docs[threads] = load(out)
+        check(docs[threads]["context"]["config"]["threads"] == int(threads), "config.threads")
+    for rec in docs["3"]["benchmarks"]:
+        ran = 1 if rec["type"] == "build" or rec["adapter"] == "ann_kdtree" else 3
+        check(rec["threads"] == ran, f"{rec['name']}: threads {rec['threads']}, expected {ran}")
+    one = {r["name"]: (r["found"], r["neighbours"], r["dist_sum"]) for r in docs["1"]["benchmarks"] if r["type"] == "sweep"}
+    three = {r["name"]: (r["found"], r["neighbours"], r["dist_sum"]) for r in docs["3"]["benchmarks"] if r["type"] == "sweep"}
+    check(one == three, "answers differ between 1 and 3 threads")
+    run(base + ["--threads", "0", "--out", str(work / "bad.json")], expect=2)
+    check(not (work / "bad.json").exists(), "--threads 0 wrote a results file")
+
+
 COMPARE_PY = Path("/usr/share/benchmark/compare.py")  # Debian's libbenchmark-tools
 
 
@@ -765,7 +788,7 @@ def case_shards():
           f"default shard file: {proc.stderr[-1000:]}")
 
 
-CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "min_time": case_min_time,
+CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "min_time": case_min_time, "threads": case_threads,
          "compare_py": case_compare_py, "table1": case_table1, "strategies": case_strategies, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
          "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
          "scale_budget": case_scale_budget, "shards": case_shards}

@@ -1,6 +1,7 @@
 #include "nnb/search_index.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <charconv>
 #include <cmath>
 #include <exception>
@@ -148,36 +149,43 @@ void SearchIndex::set_threads(int threads) {
   threads_ = threads;
 }
 
+// Slices a thread takes on average: the cost of a query varies along a scan (dense near the scanner, empty
+// far from it), so equal halves leave one thread idle; smaller slices taken in turn even the load out,
+// and each is still a run of consecutive queries (scan order kept for the structures that exploit it).
+constexpr Eigen::Index kSlicesPerThread = 8;
+
 void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const SliceAnswer& answer) const {
   const Eigen::Index n = queries.cols();
   const Eigen::Index most = std::max<Eigen::Index>(1, n / kMinQueriesPerThread);
-  const int slices = info_.concurrency == Concurrency::queries ? static_cast<int>(std::min<Eigen::Index>(threads_, most)) : 1;
-  if (slices == 1) {
+  const int threads = info_.concurrency == Concurrency::queries ? static_cast<int>(std::min<Eigen::Index>(threads_, most)) : 1;
+  if (threads == 1) {
     answer(queries, 0, out);
     return;
   }
+  const Eigen::Index slices = std::min(most, kSlicesPerThread * threads);
   std::vector<Neighbours> rows(static_cast<std::size_t>(slices));
   std::vector<std::exception_ptr> errors(static_cast<std::size_t>(slices));
-  const auto run = [&](int s) {
-    const Eigen::Index first = n * s / slices;
-    const Eigen::Index last = n * (s + 1) / slices;
-    try {
-      const Cloud slice = queries.middleCols(first, last - first);
-      answer(slice, first, rows[static_cast<std::size_t>(s)]);
-    } catch (...) {
-      errors[static_cast<std::size_t>(s)] = std::current_exception();
+  std::atomic<Eigen::Index> next{0};
+  const auto take_slices = [&] {
+    for (Eigen::Index s = next++; s < slices; s = next++) {
+      const Eigen::Index first = n * s / slices;
+      const Eigen::Index last = n * (s + 1) / slices;
+      try {
+        const Cloud slice = queries.middleCols(first, last - first);
+        answer(slice, first, rows[static_cast<std::size_t>(s)]);
+      } catch (...) {
+        errors[static_cast<std::size_t>(s)] = std::current_exception();
+      }
     }
   };
   std::vector<std::thread> workers;
-  workers.reserve(static_cast<std::size_t>(slices - 1));
-  int started = 1;
+  workers.reserve(static_cast<std::size_t>(threads - 1));
   try {
-    for (; started < slices; ++started) workers.emplace_back(run, started);
+    while (static_cast<int>(workers.size()) < threads - 1) workers.emplace_back(take_slices);
   } catch (const std::system_error&) {
-    // No more threads to be had: this thread answers the slices left.
+    // No more threads to be had: those running, this one included, take every slice.
   }
-  run(0);
-  for (int s = started; s < slices; ++s) run(s);
+  take_slices();
   for (auto& worker : workers) worker.join();
   for (const auto& error : errors) {
     if (error) std::rethrow_exception(error);
