@@ -162,12 +162,13 @@ bool skipped(benchmark::State& state, const Clouds& c) {
   return true;
 }
 
-void bench_build(benchmark::State& state, const Subject& s, const std::string& pair) {
+void bench_build(benchmark::State& state, const Subject& s, const std::string& pair, int threads) {
   const Clouds& c = clouds(pair);
   if (skipped(state, c)) return;
   std::size_t bytes = 0;
   for (auto _ : state) {
     auto index = nnb::make_adapter(s.adapter, s.params);
+    index->set_threads(threads);
     index->build(c.model);
     bytes = index->index_bytes();
     benchmark::DoNotOptimize(bytes);
@@ -230,7 +231,13 @@ std::string ranged_name(const std::string& pair, const std::string& label, doubl
 // The pairs the threaded benchmarks run on.
 bool threaded_pair(const PairSpec& pair) { return pair.name == "fig3" || pair.name == "office-sick-3dtk"; }
 
-std::string build_name(const std::string& pair, const std::string& label) { return "Build/" + pair + "/" + label; }
+std::string build_name(const std::string& pair, const std::string& label, int threads = 1) {
+  const std::string name = "Build/" + pair + "/" + label;
+  return threads == 1 ? name : name + "/threads:" + std::to_string(threads);
+}
+
+// Our k-d tree builds on threads when given them (the others build on one).
+const char* const kThreadedBuild = "ours_kdtree";
 
 std::string icp_step_name(const std::string& pair) { return "IcpStep/" + pair; }
 
@@ -279,7 +286,7 @@ void register_all(const Subjects& all) {
     for (const Subject& s : here) {
       if (!pair.shuffled) {
         ms(benchmark::RegisterBenchmark(build_name(p, s.label).c_str(),
-                                        [s, p](benchmark::State& st) { bench_build(st, s, p); }));
+                                        [s, p](benchmark::State& st) { bench_build(st, s, p, 1); }));
       }
       for (const double d : kDistancesM) {
         ms(benchmark::RegisterBenchmark(ranged_name(p, s.label, d).c_str(),
@@ -299,9 +306,17 @@ void register_all(const Subjects& all) {
       ms(benchmark::RegisterBenchmark(icp_step_name(p).c_str(), [p](benchmark::State& st) { bench_icp_step(st, p); }));
     }
   }
+  for (const std::string p : {std::string("fig3"), std::string(kCityScan)}) {
+    const Subject s{kThreadedBuild, kThreadedBuild, {}};
+    for (int t = 2; t <= max_threads() && built_in(kThreadedBuild); ++t) {
+      ms(benchmark::RegisterBenchmark(build_name(p, s.label, t).c_str(),
+                                      [s, p, t](benchmark::State& st) { bench_build(st, s, p, t); })
+             ->UseRealTime());
+    }
+  }
   for (const Subject& s : all.everywhere) {
     const std::string p = kCityScan;
-    ms(benchmark::RegisterBenchmark(build_name(p, s.label).c_str(), [s, p](benchmark::State& st) { bench_build(st, s, p); }));
+    ms(benchmark::RegisterBenchmark(build_name(p, s.label).c_str(), [s, p](benchmark::State& st) { bench_build(st, s, p, 1); }));
   }
 }
 
@@ -473,6 +488,18 @@ void print_build_targets(const RatioReporter& r, Tally& tally) {
   }
 }
 
+// For information (no target): our k-d tree's build on threads, wall time, against one thread.
+void print_threaded_builds(const RatioReporter& r) {
+  if (max_threads() < 2) return;
+  std::printf("\nBuild on threads (%s), ms of wall time and the speed-up over one thread:\n", kThreadedBuild);
+  for (const std::string model : {std::string("fig3"), std::string(kCityScan)}) {
+    for (int t = 2; t <= max_threads(); ++t) {
+      const auto one = r.wall_ms(build_name(model, kThreadedBuild)), many = r.wall_ms(build_name(model, kThreadedBuild, t));
+      std::printf("%-34s %2d threads: %9s ms, %sx\n", model.c_str(), t, number(many).c_str(), number(ratio(one, many)).c_str());
+    }
+  }
+}
+
 void print_targets(const RatioReporter& r) {
   Tally tally;
   if (!built_in("nanoflann_latest")) {
@@ -483,6 +510,7 @@ void print_targets(const RatioReporter& r) {
   print_thread_targets(r, tally);
   print_icp_step_target(r, tally);
   print_build_targets(r, tally);
+  print_threaded_builds(r);
   std::printf("\nTargets: %d PASS, %d MISS, %d not run\n", tally.pass, tally.miss, tally.not_run);
 }
 

@@ -383,6 +383,33 @@ TEST(OursKdTree, ClusterNoFloatCutSeparatesStaysOneBucket) {
   EXPECT_EQ(largest, 100u);  // the cluster, whole; everything else in buckets of at most 8
 }
 
+// Built on threads, the tree is the one built on one: the same nodes, the same order of points, the same
+// copies (clouds large enough for the subtrees below the top splits to go to other threads).
+template <typename T>
+void expect_same_tree_on_threads(const Cloud& model) {
+  ours::KdTree<T> one, many;
+  one.build(model.data(), static_cast<std::size_t>(model.cols()), 48, 1);
+  for (int threads : {2, 3, 8}) {
+    many.build(model.data(), static_cast<std::size_t>(model.cols()), 48, threads);
+    ASSERT_EQ(many.nodes().size(), one.nodes().size()) << threads << " threads";
+    EXPECT_EQ(std::memcmp(many.nodes().data(), one.nodes().data(), one.nodes().size() * sizeof(one.nodes()[0])), 0)
+        << threads << " threads";
+    EXPECT_TRUE(std::equal(one.indices().begin(), one.indices().end(), many.indices().begin())) << threads << " threads";
+    bool same_copies = true;
+    for (Eigen::Index i = 0; i < model.cols(); ++i) {
+      for (int d = 0; d < 3; ++d) same_copies &= one.coord(std::size_t(i), d) == many.coord(std::size_t(i), d);
+    }
+    EXPECT_TRUE(same_copies) << threads << " threads";
+  }
+}
+
+TEST(OursKdTree, BuiltOnThreadsAsOnOne) {
+  const Cloud model = sphere(300000);
+  expect_same_tree_on_threads<double>(model);
+  expect_same_tree_on_threads<float>(model);
+  expect_same_tree_on_threads<double>(with_duplicates(300000));
+}
+
 TEST(OursKdTree, NodesAreEightBytes) {
   EXPECT_EQ(sizeof(ours::KdTree<float>::Node), 8u);
   EXPECT_EQ(sizeof(ours::KdTree<double>::Node), 8u);

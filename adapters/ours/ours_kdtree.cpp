@@ -31,11 +31,12 @@ class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
     info = shared_info(std::move(info), reader);
     // Its double search computes distances as sq_dist_m2 does, so a hint's distance is a safe bound.
     info.uses_hints = true;
+    info.builds_on_threads = true;
     return info;
   }
 
   void do_build(const Cloud& model) override {
-    build_tree(model, [&](auto& tree, const double* xyz, std::size_t n) { tree.build(xyz, n, bucket_size_); });
+    build_tree(model, [&](auto& tree, const double* xyz, std::size_t n) { tree.build(xyz, n, bucket_size_, threads()); });
   }
 
   int bucket_size_;

@@ -23,7 +23,7 @@ inline nlohmann::ordered_json adapter_metadata(const AdapterInfo& info) {
           {"scalar", info.scalar}, {"exact", info.exact}, {"knn", to_string(info.knn)},
           {"radius", to_string(info.radius)}, {"ranged", to_string(info.ranged)},
           {"ranged_strategies", strategy_names(info.strategies(SearchKind::ranged))},
-          {"concurrency", to_string(info.concurrency)}, {"params", info.params}, {"notes", info.notes}};
+          {"concurrency", to_string(info.concurrency)}, {"builds_on_threads", info.builds_on_threads}, {"params", info.params}, {"notes", info.notes}};
 }
 
 }  // namespace nnb::bench

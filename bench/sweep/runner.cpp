@@ -254,6 +254,7 @@ std::unique_ptr<SearchIndex> build_index(const Unit& unit, const Experiment& e, 
     b.wall = stats_of(wall);
     b.cpu = stats_of(cpu);
     b.index_bytes = index->index_bytes();
+    b.threads = index->build_threads_used();
   } catch (const std::bad_alloc&) {
     b.skipped = "out of memory: std::bad_alloc building on " + std::to_string(b.n_points) + " points";
     index.reset();

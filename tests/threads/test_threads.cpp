@@ -95,6 +95,24 @@ TEST_P(Threads, SmallBatchesStayWhole) {
   expect_same_answers(*one, *many, queries);
 }
 
+// Adapters that build on threads build the index they build on one: the same answers. The cloud is large
+// enough for a threaded build to start threads (ours: 2^17 points).
+TEST_P(Threads, BuildOnThreadsAnswersAsOnOne) {
+  auto probe = GetParam().make({});
+  if (!probe->info().builds_on_threads) return;  // builds on one thread: nothing more to compare
+  const Cloud model = cube_points(150000, 7);
+  const Cloud queries = cube_points(2000, 8);
+  probe->build(model);
+  auto many = GetParam().make({});
+  many->set_threads(3);
+  many->build(model);
+  EXPECT_EQ(many->build_threads_used(), 3);
+  Neighbours expected, got;
+  probe->ranged(queries, 2, 0.02, expected);
+  many->ranged(queries, 2, 0.02, got);
+  EXPECT_TRUE(same_rows(expected, got));
+}
+
 TEST(ThreadsAsked, OutsideOneToMaxIsRefused) {
   auto index = nnb::testing::thread_subjects().front().make({});
   EXPECT_THROW(index->set_threads(0), nnb::InputError);

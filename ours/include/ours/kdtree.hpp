@@ -25,15 +25,66 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <new>
+#include <exception>
 #include <stdexcept>
+#include <system_error>
+#include <thread>
 #include <type_traits>
+#include <utility>
 #include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 namespace ours {
 
 /// A cell the k-d tree search has still to visit: its node, squared distance (m^2) and per-axis offsets.
+/// The standard allocator, except that resize() leaves numbers uninitialised (a build writes every
+/// coordinate and index at once, and zeroing hundreds of megabytes first only costs time), and that on
+/// Linux large blocks ask for transparent huge pages: a first touch then maps 2 MB, not 4 KB, and page
+/// faults were a third of building a 16M-point tree.
+template <typename U>
+struct DefaultInit : std::allocator<U> {
+  template <typename V>
+  struct rebind {
+    using other = DefaultInit<V>;
+  };
+  DefaultInit() = default;
+  template <typename V>
+  DefaultInit(const DefaultInit<V>&) noexcept {}
+
+  U* allocate(std::size_t n) {
+#if defined(__linux__)
+    constexpr std::size_t kHugePage = std::size_t(2) << 20;
+    const std::size_t bytes = n * sizeof(U);
+    if (bytes >= 2 * kHugePage) {
+      void* block = std::aligned_alloc(kHugePage, (bytes + kHugePage - 1) / kHugePage * kHugePage);
+      if (!block) throw std::bad_alloc();
+      ::madvise(block, bytes, MADV_HUGEPAGE);  // advice only: without it the block works the same
+      return static_cast<U*>(block);
+    }
+#endif
+    return std::allocator<U>::allocate(n);
+  }
+  void deallocate(U* block, std::size_t n) noexcept {
+#if defined(__linux__)
+    if (n * sizeof(U) >= (std::size_t(4) << 20)) return std::free(block);
+#endif
+    std::allocator<U>::deallocate(block, n);
+  }
+  template <typename V, typename... Args>
+  void construct(V* at, Args&&... args) {
+    if constexpr (sizeof...(Args) == 0) ::new (static_cast<void*>(at)) V;
+    else ::new (static_cast<void*>(at)) V(std::forward<Args>(args)...);
+  }
+};
+
 template <typename T>
 struct PendingCell {
   std::array<T, 3> offsets;
@@ -81,8 +132,11 @@ class KdTree {
   /// Builds over n points given as x,y,z triples (metres, double). Cut planes are stored relative to
   /// the centre of the bounding box, and float trees store their coordinates relative to it too, so
   /// that large offsets cost no precision.
-  void build(const double* xyz, std::size_t n, int bucket_size) {
+  /// With threads > 1, the copy of the points and the subtrees below the top splits are built on up to
+  /// that many threads; the tree is the same whatever the number.
+  void build(const double* xyz, std::size_t n, int bucket_size, int threads = 1) {
     if (bucket_size < 1) throw std::invalid_argument("ours::KdTree: bucket_size must be >= 1");
+    if (threads < 1) throw std::invalid_argument("ours::KdTree: threads must be >= 1");
     if (n >= (std::size_t(1) << 30)) throw std::invalid_argument("ours::KdTree: too many points");
     nodes_.clear();
     points_.clear();
@@ -95,33 +149,24 @@ class KdTree {
     std::array<double, 3> lo{}, hi{};
     bounds_of(xyz, n, lo, hi);
     for (int d = 0; d < 3; ++d) origin_[d] = 0.5 * (lo[d] + hi[d]);
-    // Working copy in T: what the tree compares is exactly what it stores.
-    std::vector<T> work(3 * n);
-    for (std::size_t i = 0; i < n; ++i) {
-      for (int d = 0; d < 3; ++d) work[3 * i + d] = T(xyz[3 * i + d] - point_shift(d));
-    }
-    std::vector<std::uint32_t> order(n);
-    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
-    std::array<T, 3> cell_lo, cell_hi;
-    for (int d = 0; d < 3; ++d) {
-      cell_lo[d] = work[d];
-      cell_hi[d] = work[d];
-    }
-    for (std::size_t i = 1; i < n; ++i) {
-      for (int d = 0; d < 3; ++d) {
-        cell_lo[d] = std::min(cell_lo[d], work[3 * i + d]);
-        cell_hi[d] = std::max(cell_hi[d], work[3 * i + d]);
-      }
-    }
-    nodes_.reserve(2 * (n / bucket_size_ + 1));
-    build_node(work, order.data(), 0, static_cast<std::uint32_t>(n), cell_lo, cell_hi, 0);
-    nodes_.shrink_to_fit();
+    // The copies in T (what the tree compares is exactly what it stores), three arrays of coordinates and
+    // the model indices, are what the splits move: the tree is built in place, in its final order.
     points_.resize(3 * n);
     indices_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      indices_[i] = order[i];
-      for (int d = 0; d < 3; ++d) points_[d * n + i] = work[3 * order[i] + d];
-    }
+    on_threads(threads, n, [&](std::size_t first, std::size_t last) {
+      for (std::size_t i = first; i < last; ++i) {
+        for (int d = 0; d < 3; ++d) points_[d * n + i] = T(xyz[3 * i + d] - point_shift(d));
+        indices_[i] = static_cast<std::uint32_t>(i);
+      }
+    });
+    std::array<T, 3> cell_lo, cell_hi;
+    for (int d = 0; d < 3; ++d) extent(unsigned(d), 0, static_cast<std::uint32_t>(n), cell_lo[d], cell_hi[d]);
+    Subtree tree;
+    tree.nodes.reserve(2 * (n / bucket_size_ + 1));
+    build_node(tree, 0, static_cast<std::uint32_t>(n), cell_lo, cell_hi, 0, threads);
+    nodes_ = std::move(tree.nodes);
+    nodes_.shrink_to_fit();
+    max_depth_ = tree.max_depth;
     shrink_ = bound_shrink<T>(static_cast<int>(max_depth_));
   }
 
@@ -225,7 +270,7 @@ class KdTree {
   /// Returns the nodes, pre-order.
   const std::vector<Node>& nodes() const { return nodes_; }
   /// Returns the model indices of the bucket entries, in tree order.
-  const std::vector<std::uint32_t>& indices() const { return indices_; }
+  const std::vector<std::uint32_t, DefaultInit<std::uint32_t>>& indices() const { return indices_; }
   /// Returns coordinate d of bucket entry i (T; float: relative to origin(), double: as given). The
   /// copies are kept in tree order as three arrays (all x, all y, all z), for vectorised bucket scans.
   T coord(std::size_t i, int d) const { return points_[std::size_t(d) * n_ + i]; }
@@ -309,31 +354,165 @@ class KdTree {
     return f;
   }
 
-  // Builds the subtree of order[begin, end) inside the cell [lo, hi]; returns nothing, appends nodes.
-  void build_node(const std::vector<T>& pts, std::uint32_t* order, std::uint32_t begin, std::uint32_t end,
-                  std::array<T, 3> lo, std::array<T, 3> hi, std::uint32_t depth) {
-    max_depth_ = std::max(max_depth_, depth);
-    const std::uint32_t count = end - begin;
-    // Point bounds decide which dimensions can be split at all (duplicates, flat clouds).
-    std::array<T, 3> pmin, pmax;
-    for (int d = 0; d < 3; ++d) pmin[d] = pmax[d] = pts[3 * order[begin] + d];
+  // The smallest and largest coordinate on axis dim of the points in [begin, end).
+  void extent(unsigned dim, std::uint32_t begin, std::uint32_t end, T& min, T& max) const {
+    const T* c = points_.data() + dim * n_;
+    min = max = c[begin];
     for (std::uint32_t i = begin + 1; i < end; ++i) {
-      for (int d = 0; d < 3; ++d) {
-        const T v = pts[3 * order[i] + d];
-        pmin[d] = std::min(pmin[d], v);
-        pmax[d] = std::max(pmax[d], v);
-      }
+      min = std::min(min, c[i]);
+      max = std::max(max, c[i]);
     }
-    // Sliding midpoint on the widest side of the cell; narrower sides when no float cut fits there.
+  }
+
+  // Swaps the points at a and b (coordinates and model index).
+  void swap_points(std::uint32_t a, std::uint32_t b) {
+    T* x = points_.data();
+    for (std::size_t d = 0; d < 3; ++d) std::swap(x[d * n_ + a], x[d * n_ + b]);
+    std::swap(indices_[a], indices_[b]);
+  }
+
+  // Moves the points of [begin, end) for which first(i) holds before the others; returns where the others
+  // start (Hoare's scheme).
+  template <class First>
+  std::uint32_t partition_points(std::uint32_t begin, std::uint32_t end, First&& first) {
+    for (;;) {
+      while (begin < end && first(begin)) ++begin;
+      while (begin < end && !first(end - 1)) --end;
+      if (begin == end) return begin;
+      swap_points(begin, end - 1);
+      ++begin;
+      --end;
+    }
+  }
+
+  // Moves the points of [begin, end) below split_at on axis dim before the others; returns where the others
+  // start. Which side a point falls on is a coin toss near the top of the tree, and mispredicted branches
+  // were most of a build: this is Edelkamp and Weiss's block partition (BlockQuicksort), whose comparisons
+  // only count, a block at each end at a time, before the misplaced pairs found are swapped.
+  std::uint32_t partition_below(std::uint32_t begin, std::uint32_t end, unsigned dim, T split_at) {
+    constexpr std::uint32_t kBlock = 64;
+    const T* c = points_.data() + dim * n_;
+    std::uint8_t misplaced_left[kBlock], misplaced_right[kBlock];
+    std::uint32_t n_left = 0, n_right = 0, from_left = 0, from_right = 0;
+    std::uint32_t left = begin, right = end;  // [begin, left) is below, [right, end) is not
+    while (right - left >= 2 * kBlock) {
+      if (n_left == 0) {
+        from_left = 0;
+        for (std::uint32_t i = 0; i < kBlock; ++i) {
+          misplaced_left[n_left] = static_cast<std::uint8_t>(i);
+          n_left += !(c[left + i] < split_at);
+        }
+      }
+      if (n_right == 0) {
+        from_right = 0;
+        for (std::uint32_t i = 0; i < kBlock; ++i) {
+          misplaced_right[n_right] = static_cast<std::uint8_t>(i);
+          n_right += c[right - 1 - i] < split_at;
+        }
+      }
+      const std::uint32_t swaps = std::min(n_left, n_right);
+      for (std::uint32_t i = 0; i < swaps; ++i) {
+        swap_points(left + misplaced_left[from_left + i], right - 1 - misplaced_right[from_right + i]);
+      }
+      n_left -= swaps;
+      n_right -= swaps;
+      from_left += swaps;
+      from_right += swaps;
+      if (n_left == 0) left += kBlock;
+      if (n_right == 0) right -= kBlock;
+    }
+    // The rest (a block with misplaced points left in it is still inside [left, right)).
+    return partition_points(left, right, [&](std::uint32_t i) { return c[i] < split_at; });
+  }
+
+  // Calls work(first, last) on [0, n) split in `threads` ranges, one thread each (this one when no other
+  // can be started).
+  template <class Work>
+  static void on_threads(int threads, std::size_t n, Work&& work) {
+    if (threads == 1 || n < kParallelPoints) return work(std::size_t(0), n);
+    std::vector<std::thread> others;
+    int started = 1;
+    try {
+      for (; started < threads; ++started) others.emplace_back(work, n * started / threads, n * (started + 1) / threads);
+    } catch (const std::system_error&) {
+    }
+    work(std::size_t(0), n / threads);
+    for (int t = started; t < threads; ++t) work(n * t / threads, n * (t + 1) / threads);
+    for (auto& other : others) other.join();
+  }
+
+  // Nodes in pre-order, a right child's index counted from the first of them, and their greatest depth.
+  struct Subtree {
+    std::vector<Node> nodes;
+    std::uint32_t max_depth = 0;
+  };
+
+  // Appends part's nodes to whole, their right children's indices shifted to where they land.
+  static void append_subtree(Subtree& whole, const Subtree& part) {
+    const std::size_t base = whole.nodes.size();
+    if (base + part.nodes.size() >= (std::size_t(1) << 30)) throw std::length_error("ours::KdTree: too many nodes");
+    for (Node node : part.nodes) {
+      if (!node.is_leaf()) node.word += static_cast<std::uint32_t>(base) << 2;
+      whole.nodes.push_back(node);
+    }
+    whole.max_depth = std::max(whole.max_depth, part.max_depth);
+  }
+
+  // Subtrees of fewer points are built on the thread that split them: starting a thread costs more.
+  static constexpr std::uint32_t kParallelPoints = 1u << 16;
+
+  // Builds the two children of a split, each into its own Subtree, the left one on another thread.
+  void build_children_in_parallel(Subtree& out, std::uint32_t begin, std::uint32_t split, std::uint32_t end,
+                                  const std::array<std::array<T, 3>, 4>& cells, std::uint32_t depth, int threads,
+                                  std::size_t self, unsigned dim) {
+    Subtree left, right;
+    std::exception_ptr failed;
+    const auto build_left = [&] {
+      try {
+        build_node(left, begin, split, cells[0], cells[1], depth + 1, threads / 2);
+      } catch (...) {
+        failed = std::current_exception();
+      }
+    };
+    std::thread other;
+    try {
+      other = std::thread(build_left);
+    } catch (const std::system_error&) {
+      build_left();  // no thread to be had: one after the other
+    }
+    try {
+      build_node(right, split, end, cells[2], cells[3], depth + 1, threads - threads / 2);
+    } catch (...) {
+      if (other.joinable()) other.join();
+      throw;
+    }
+    if (other.joinable()) other.join();
+    if (failed) std::rethrow_exception(failed);
+    append_subtree(out, left);
+    out.nodes[self].word = (static_cast<std::uint32_t>(out.nodes.size()) << 2) | dim;
+    append_subtree(out, right);
+  }
+
+  // Builds the subtree of the points [begin, end) inside the cell [lo, hi]: appends its nodes to out, on up
+  // to `threads` threads.
+  void build_node(Subtree& out, std::uint32_t begin, std::uint32_t end, std::array<T, 3> lo, std::array<T, 3> hi,
+                  std::uint32_t depth, int threads) {
+    out.max_depth = std::max(out.max_depth, depth);
+    const std::uint32_t count = end - begin;
+    // Sliding midpoint on the widest side of the cell; narrower sides when no float cut fits there. The
+    // points' extent on a side decides whether it can be split at all (duplicates, flat clouds) and where
+    // the cut slides to: measured side by side, only as far as the choice needs (a bucket needs none).
     int dim = -1;
     float cut = 0;
     if (count > bucket_size_) {
       std::array<int, 3> by_width{0, 1, 2};
       std::stable_sort(by_width.begin(), by_width.end(), [&](int a, int b) { return hi[a] - lo[a] > hi[b] - lo[b]; });
       for (const int d : by_width) {
-        if (!(pmax[d] > pmin[d])) continue;
-        const T middle = std::clamp(lo[d] + (hi[d] - lo[d]) / 2, pmin[d], pmax[d]);
-        if (choose_cut(unsigned(d), middle, pmin[d], pmax[d], cut)) {
+        T pmin, pmax;
+        extent(unsigned(d), begin, end, pmin, pmax);
+        if (!(pmax > pmin)) continue;
+        const T middle = std::clamp(lo[d] + (hi[d] - lo[d]) / 2, pmin, pmax);
+        if (choose_cut(unsigned(d), middle, pmin, pmax, cut)) {
           dim = d;
           break;
         }
@@ -343,33 +522,39 @@ class KdTree {
       Node leaf;
       leaf.word = (count << 2) | 3u;
       leaf.bucket = begin;
-      nodes_.push_back(leaf);
+      out.nodes.push_back(leaf);
       return;
     }
     const T split_at = plane(unsigned(dim), cut);
-    auto coord = [&](std::uint32_t i) { return pts[3 * i + dim]; };
-    std::uint32_t* first = order + begin;
-    std::uint32_t* last = order + end;
-    std::uint32_t* eq_begin = std::partition(first, last, [&](std::uint32_t i) { return coord(i) < split_at; });
-    std::uint32_t* eq_end = std::partition(eq_begin, last, [&](std::uint32_t i) { return coord(i) == split_at; });
-    // Points on the plane may go either way: balance them, but keep at least one point per side.
-    const std::uint32_t n_lt = static_cast<std::uint32_t>(eq_begin - first);
-    const std::uint32_t n_le = static_cast<std::uint32_t>(eq_end - first);
+    const std::uint32_t eq_begin = partition_below(begin, end, unsigned(dim), split_at);
+    // Points on the plane may go either way: balance them, but keep at least one point per side. They
+    // are gathered only when the left side wants some (else none moves: a pass over the right saved).
+    const std::uint32_t n_lt = eq_begin - begin;
+    std::uint32_t n_le = n_lt;
+    if (n_lt < count / 2 || n_lt == 0) {
+      const T* c = points_.data() + std::size_t(dim) * n_;
+      n_le = partition_points(eq_begin, end, [&](std::uint32_t i) { return c[i] == split_at; }) - begin;
+    }
     std::uint32_t n_left = std::clamp(count / 2, n_lt, n_le);
     n_left = std::clamp<std::uint32_t>(n_left, 1, count - 1);
     const std::uint32_t split = begin + n_left;
 
-    const std::size_t self = nodes_.size();
-    nodes_.push_back(Node{});
-    nodes_[self].cut = cut;
+    const std::size_t self = out.nodes.size();
+    out.nodes.push_back(Node{});
+    out.nodes[self].cut = cut;
     std::array<T, 3> left_hi = hi, right_lo = lo;
     left_hi[dim] = split_at;
     right_lo[dim] = split_at;
-    build_node(pts, order, begin, split, lo, left_hi, depth + 1);
-    const std::size_t right = nodes_.size();
+    if (threads > 1 && count >= 2 * kParallelPoints) {
+      build_children_in_parallel(out, begin, split, end, {lo, left_hi, right_lo, hi}, depth, threads, self,
+                                 static_cast<unsigned>(dim));
+      return;
+    }
+    build_node(out, begin, split, lo, left_hi, depth + 1, 1);
+    const std::size_t right = out.nodes.size();
     if (right >= (std::size_t(1) << 30)) throw std::length_error("ours::KdTree: too many nodes");
-    nodes_[self].word = (static_cast<std::uint32_t>(right) << 2) | static_cast<std::uint32_t>(dim);
-    build_node(pts, order, split, end, right_lo, hi, depth + 1);
+    out.nodes[self].word = (static_cast<std::uint32_t>(right) << 2) | static_cast<std::uint32_t>(dim);
+    build_node(out, split, end, right_lo, hi, depth + 1, 1);
   }
 
   // The previous in-order query's first descent: its steps are in buffers.path[0, depth), its leaf's
@@ -544,8 +729,8 @@ class KdTree {
   }
 
   std::vector<Node> nodes_;
-  std::vector<T> points_;
-  std::vector<std::uint32_t> indices_;
+  std::vector<T, DefaultInit<T>> points_;
+  std::vector<std::uint32_t, DefaultInit<std::uint32_t>> indices_;
   std::array<double, 3> origin_{0, 0, 0};
   std::size_t n_ = 0;
   std::uint32_t bucket_size_ = 8;

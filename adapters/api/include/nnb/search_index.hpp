@@ -75,6 +75,8 @@ struct AdapterInfo {
   bool uses_hints = false;
   /// How the adapter may use more than one thread; declared, and checked by the cross-check's threaded runs.
   Concurrency concurrency = Concurrency::single;
+  /// Whether build() uses threads() too (else builds run on one thread).
+  bool builds_on_threads = false;
   std::string notes;      ///< workarounds the adapter applies, in one line
 
   /// The default strategy for a kind: the library's own when it has one.
@@ -129,6 +131,8 @@ class SearchIndex {
   int threads() const { return threads_; }
   /// The threads a large batch actually runs on: threads() unless the adapter is Concurrency::single.
   int threads_used() const { return info_.concurrency == Concurrency::single ? 1 : threads_; }
+  /// The threads a build runs on: threads() when info().builds_on_threads, else 1.
+  int build_threads_used() const { return info_.builds_on_threads ? threads_ : 1; }
   static constexpr int kMaxThreads = 1024;
   static constexpr Eigen::Index kMinQueriesPerThread = 256;
 
