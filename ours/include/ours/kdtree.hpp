@@ -387,18 +387,11 @@ class KdTree {
 
   // Moves the points of [begin, end) below split_at on axis dim before the others; returns where the others
   // start. Which side a point falls on is a coin toss near the top of the tree, and mispredicted branches
-  // were most of a build: large ranges take Edelkamp and Weiss's block partition (BlockQuicksort), whose
-  // comparisons only count, a block at each end at a time, before the misplaced pairs found are swapped.
-  // The last few splits above the buckets take Hoare's, which leaves the points already on their side where
-  // they are: the order within a bucket it gives made ranged 1-NN on Figure 3 a quarter faster than the
-  // block partition's (micro_nns; the model's own order is spatially coherent), at little cost to a build.
+  // were most of a build: this is Edelkamp and Weiss's block partition (BlockQuicksort), whose comparisons
+  // only count, a block at each end at a time, before the misplaced pairs found are swapped.
   std::uint32_t partition_below(std::uint32_t begin, std::uint32_t end, unsigned dim, T split_at) {
     constexpr std::uint32_t kBlock = 64;
-    constexpr std::uint32_t kBlockPartitionMin = 512;
     const T* c = points_.data() + dim * n_;
-    if (end - begin <= kBlockPartitionMin) {
-      return partition_points(begin, end, [&](std::uint32_t i) { return c[i] < split_at; });
-    }
     std::uint8_t misplaced_left[kBlock], misplaced_right[kBlock];
     std::uint32_t n_left = 0, n_right = 0, from_left = 0, from_right = 0;
     std::uint32_t left = begin, right = end;  // [begin, left) is below, [right, end) is not
