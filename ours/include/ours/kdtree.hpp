@@ -59,11 +59,13 @@ struct DefaultInit : std::allocator<U> {
   template <typename V>
   DefaultInit(const DefaultInit<V>&) noexcept {}
 
+  static constexpr std::size_t kHugePage = std::size_t(2) << 20;
+  static constexpr std::size_t kHugeBlockMin = 2 * kHugePage;  // smaller blocks: the standard allocator
+
   U* allocate(std::size_t n) {
 #if defined(__linux__)
-    constexpr std::size_t kHugePage = std::size_t(2) << 20;
     const std::size_t bytes = n * sizeof(U);
-    if (bytes >= 2 * kHugePage) {
+    if (bytes >= kHugeBlockMin) {
       void* block = std::aligned_alloc(kHugePage, (bytes + kHugePage - 1) / kHugePage * kHugePage);
       if (!block) throw std::bad_alloc();
       ::madvise(block, bytes, MADV_HUGEPAGE);  // advice only: without it the block works the same
@@ -74,7 +76,7 @@ struct DefaultInit : std::allocator<U> {
   }
   void deallocate(U* block, std::size_t n) noexcept {
 #if defined(__linux__)
-    if (n * sizeof(U) >= (std::size_t(4) << 20)) return std::free(block);
+    if (n * sizeof(U) >= kHugeBlockMin) return std::free(block);
 #endif
     std::allocator<U>::deallocate(block, n);
   }
