@@ -256,6 +256,13 @@ Subjects subjects() {
       else skipped.push_back(name);
     }
   }
+  // What answering in Morton order is worth (ours choose by default): always the caller's order, and
+  // always Morton order.
+  for (const std::string& name : kOurs) {
+    if (!built_in(name)) continue;
+    all.everywhere.push_back({name + "[order=caller]", name, {{"order", "caller"}}});
+    all.fig3_and_sick.push_back({name + "[order=morton]", name, {{"order", "morton"}}});
+  }
   for (const char* name : {"flann_kdtree", "pcl_octree", "ann_kdtree"}) {
     if (built_in(name)) all.fig3_and_sick.push_back({name, name, {}});
     else skipped.push_back(name);

@@ -5,9 +5,11 @@
 #include "nnb/registry.hpp"
 #include "ours/kdtree.hpp"
 #include "ours/octree.hpp"
+#include "ours/query_order.hpp"
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -157,6 +159,10 @@ std::vector<Variant> variants() {
       all.push_back({"ours_octree", {{"scalar", scalar}, {"max_points_per_leaf", leaf}}});
     }
     all.push_back({"ours_octree", {{"scalar", scalar}, {"max_points_per_leaf", "1"}, {"min_cell_size_m", "0.05"}}});
+    for (const char* order : {"morton", "caller"}) {
+      all.push_back({"ours_kdtree", {{"scalar", scalar}, {"bucket_size", "8"}, {"order", order}}});
+      all.push_back({"ours_octree", {{"scalar", scalar}, {"max_points_per_leaf", "8"}, {"order", order}}});
+    }
   }
   return all;
 }
@@ -505,6 +511,107 @@ TEST(OursOctree, Invariants) {
   }
 }
 
+// ---------- the order a batch is answered in ----------
+
+// The Morton code of query i as morton_order computes it, from its cell on the grid.
+std::uint64_t code_of(const std::array<std::uint32_t, 3>& cell) {
+  return ours::spread_bits_3(cell[0]) | ours::spread_bits_3(cell[1]) << 1 | ours::spread_bits_3(cell[2]) << 2;
+}
+
+TEST(QueryOrder, MortonOrderIsAPermutationAlongTheCurve) {
+  const Cloud queries = queries_for(sphere(5000), 2.0, 3000);
+  ours::QueryOrder order;
+  ours::morton_order(queries.data(), 3000, order);
+  std::vector<std::uint32_t> sorted = order.order;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::uint32_t i = 0; i < 3000; ++i) ASSERT_EQ(sorted[i], i);
+  // Along the curve: each query's cell code is at least the previous one's, and equal codes keep the
+  // caller's order.
+  const Eigen::Vector3d lo = queries.rowwise().minCoeff();
+  const double span_m = (queries.rowwise().maxCoeff() - lo).maxCoeff();
+  auto code = [&](std::uint32_t i) {
+    std::array<std::uint32_t, 3> cell{};
+    for (int d = 0; d < 3; ++d) {
+      cell[d] = std::min(1023u, static_cast<std::uint32_t>((queries(d, i) - lo[d]) * (1024.0 / span_m)));
+    }
+    return code_of(cell);
+  };
+  for (std::size_t s = 1; s < 3000; ++s) {
+    const std::uint64_t a = code(order.order[s - 1]), b = code(order.order[s]);
+    ASSERT_LE(a, b) << "at " << s;
+    if (a == b) {
+      ASSERT_LT(order.order[s - 1], order.order[s]);
+    }
+  }
+  EXPECT_LT(ours::path_length_m(queries.data(), 3000, order.order.data()), ours::path_length_m(queries.data(), 3000) / 4)
+      << "random queries in Morton order should make a far shorter path";
+}
+
+TEST(QueryOrder, HostileCoordinatesStayOnTheGrid) {
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<std::vector<double>> batches = {
+      {1e200, -1e200, 0, -1e308, 1e308, 5, 0, 0, 0},  // spans that overflow to infinity
+      {nan, 1, 2, 3, nan, 4, 5, 6, nan},
+      {inf, 0, 0, -inf, 0, 0, 1, 1, 1},
+      {7, 7, 7, 7, 7, 7, 7, 7, 7},  // no extent at all
+  };
+  for (const auto& xyz : batches) {
+    ours::QueryOrder order;
+    ours::morton_order(xyz.data(), 3, order);
+    std::vector<std::uint32_t> sorted = order.order;
+    std::sort(sorted.begin(), sorted.end());
+    EXPECT_EQ(sorted, (std::vector<std::uint32_t>{0, 1, 2}));
+  }
+  ours::QueryOrder none;
+  ours::morton_order(nullptr, 0, none);
+  EXPECT_TRUE(none.order.empty());
+}
+
+// Batches large enough that "auto" judges the order after its first slice and "morton" sorts: every
+// order gives brute force's rows, for random and for scan-ordered queries, plain and hinted.
+TEST(OursAdapters, EveryQueryOrderGivesBruteForcesRows) {
+  const Cloud model = with_duplicates(6000);
+  const Cloud random = queries_for(model, 1.5, 5000);
+  const Cloud scan = in_scan_order(random);
+  auto brute = nnb::make_adapter("brute_force");
+  brute->build(model);
+  std::mt19937_64 rng(17);
+  std::uniform_int_distribution<nnb::PointIndex> pick(0, 5999);
+  std::vector<nnb::PointIndex> hints(5000);
+  for (auto& h : hints) h = pick(rng) % 7 == 0 ? nnb::kNoHint : pick(rng);
+  // Brute force's rows, per query order: ranged k=1 and k=4 at 0.3 m, k-NN k=3, ranged 1-NN at 0.5 m.
+  std::vector<std::array<Neighbours, 4>> expected(2);
+  const std::array<const Cloud*, 2> orders{&random, &scan};
+  for (std::size_t o = 0; o < 2; ++o) {
+    brute->ranged(*orders[o], 1, 0.3, expected[o][0]);
+    brute->ranged(*orders[o], 4, 0.3, expected[o][1]);
+    brute->knn(*orders[o], 3, expected[o][2]);
+    brute->ranged(*orders[o], 1, 0.5, expected[o][3]);
+  }
+  for (const char* adapter : {"ours_kdtree", "ours_octree"}) {
+    for (const char* scalar : {"double", "float"}) {
+      for (const char* order : {"auto", "caller", "morton"}) {
+        SCOPED_TRACE(std::string(adapter) + " " + scalar + " order=" + order);
+        auto index = nnb::make_adapter(adapter, {{"scalar", scalar}, {"order", order}});
+        index->build(model);
+        Neighbours got;
+        for (std::size_t o = 0; o < 2; ++o) {
+          const Cloud& queries = *orders[o];
+          SCOPED_TRACE(o == 0 ? "random order" : "scan order");
+          index->ranged(queries, 1, 0.3, got);
+          ASSERT_EQ("", exact_mismatch(model, queries, expected[o][0], got, true)) << "ranged k=1";
+          index->ranged(queries, 4, 0.3, got);
+          ASSERT_EQ("", exact_mismatch(model, queries, expected[o][1], got, true)) << "ranged k=4";
+          index->knn(queries, 3, got);
+          ASSERT_EQ("", exact_mismatch(model, queries, expected[o][2], got, true)) << "knn";
+          index->ranged_hinted(queries, 0.5, hints, got);
+          ASSERT_EQ("", exact_mismatch(model, queries, expected[o][3], got, true)) << "hinted";
+        }
+      }
+    }
+  }
+}
+
 // ---------- adapters ----------
 
 TEST(OursAdapters, IndexBytesCountNodesIndicesAndCopies) {
@@ -527,6 +634,7 @@ TEST(OursAdapters, BadParametersAreRefused) {
   EXPECT_THROW(nnb::make_adapter("ours_kdtree", {{"leaf", "3"}}), nnb::InputError);
   EXPECT_THROW(nnb::make_adapter("ours_octree", {{"max_points_per_leaf", "x"}}), nnb::InputError);
   EXPECT_THROW(nnb::make_adapter("ours_octree", {{"min_cell_size_m", "-1"}}), nnb::InputError);
+  EXPECT_THROW(nnb::make_adapter("ours_kdtree", {{"order", "hilbert"}}), nnb::InputError);
 }
 
 }  // namespace

@@ -5,42 +5,129 @@
 // return a conservative superset; its distances are recomputed in double, filtered and truncated.
 #include "nnb/search_index.hpp"
 #include "ours/collector.hpp"
+#include "ours/query_order.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <string>
 #include <type_traits>
 #include <utility>
 #include <vector>
 
 namespace nnb::adapters::ours_rows {
 
+/// Appends to out the row of one query from a tree's candidates: final for a double tree; for a float
+/// tree (a superset) the distances are recomputed in double, filtered by limit_sq_m2 and cut to k.
+template <typename T>
+void append_row(const std::vector<ours::Neighbour<T>>& best, const double* query, const Cloud& model, int k,
+                double limit_sq_m2, std::vector<std::pair<double, PointIndex>>& row, Neighbours& out) {
+  if constexpr (std::is_same_v<T, double>) {
+    for (const auto& n : best) out.push(n.index, n.sq_dist);
+  } else {
+    row.clear();
+    for (const auto& n : best) {
+      const double sq = sq_dist_m2(query, model.col(n.index).data());
+      if (sq <= limit_sq_m2) row.emplace_back(sq, n.index);
+    }
+    const std::size_t keep = std::min(row.size(), static_cast<std::size_t>(k));
+    std::partial_sort(row.begin(), row.begin() + static_cast<std::ptrdiff_t>(keep), row.end());
+    for (std::size_t i = 0; i < keep; ++i) out.push(row[i].second, row[i].first);
+  }
+  out.end_query();
+}
+
+/// Appends to out the rows answered in the order `order` (row s belongs to the order[s]-th query after
+/// those out holds), in query order.
+inline void append_in_query_order(const Neighbours& answered, const std::vector<std::uint32_t>& order,
+                                  Neighbours& out) {
+  const std::size_t first = out.n_queries(), n = order.size();
+  out.offsets.resize(first + n + 1);
+  for (std::size_t s = 0; s < n; ++s) out.offsets[first + order[s] + 1] = answered.count(s);
+  for (std::size_t q = first; q < first + n; ++q) out.offsets[q + 1] += out.offsets[q];
+  out.indices.resize(out.offsets.back());
+  out.sq_dists.resize(out.offsets.back());
+  for (std::size_t s = 0; s < n; ++s) {
+    const std::size_t from = answered.offsets[s], to = out.offsets[first + order[s]], count = answered.count(s);
+    std::copy_n(answered.indices.begin() + from, count, out.indices.begin() + to);
+    std::copy_n(answered.sq_dists.begin() + from, count, out.sq_dists.begin() + to);
+  }
+}
+
+/// Memory for answering a batch in Morton order, kept by each thread between batches: fresh memory costs
+/// a page fault a page on every batch (most of the time of a 60,000-query batch), unless it is huge.
+struct MortonScratch {
+  ours::QueryOrder order;
+  std::vector<double> sorted_xyz;  ///< the queries in Morton order
+  Neighbours answered;             ///< their rows, in that order
+
+  void release_if_large() {
+    if (order.order.size() > (std::size_t(1) << 20)) *this = MortonScratch{};
+  }
+};
+
+inline MortonScratch& morton_scratch() {
+  thread_local MortonScratch scratch;
+  return scratch;
+}
+
+/// The order a batch is answered in (the adapters' "order" parameter): "caller" (as given), "morton"
+/// (sorted along the Z-order curve, see ours/query_order.hpp) or "auto" (judged from a first slice).
+enum class Order { automatic, caller, morton };
+
+inline Order order_named(const std::string& name) {
+  return name == "caller" ? Order::caller : name == "morton" ? Order::morton : Order::automatic;
+}
+
+/// How many queries of a batch "auto" answers in the caller's order before it judges that order.
+constexpr std::size_t kOrderProbe = 1024;
+/// The fewest queries worth sorting.
+constexpr std::size_t kMinMortonBatch = 64;
+
 /// Fills out with the k nearest model points within limit_sq_m2 (m^2, inclusive) of each query. The tree
 /// searches query q within search_limit_of(q) <= limit_sq_m2, which must still hold the answer (a hint's
-/// distance does: nothing nearer than the nearest lies beyond it).
+/// distance does: nothing nearer than the nearest lies beyond it). The rows are in the caller's order
+/// whatever order the queries are answered in (see Order).
+///
+/// "auto": the first kOrderProbe queries are answered in the caller's order, and the tree reports how
+/// many followed the previous query closely (its leaf, or its descent). If most did (a scan's points,
+/// one after the other), the rest follow in the caller's order too; otherwise they are answered in
+/// Morton order.
 template <typename T, class Tree, class Limits>
 void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, double limit_sq_m2,
-            Limits&& search_limit_of, Neighbours& out) {
-  out.reset(static_cast<std::size_t>(queries.cols()), static_cast<std::size_t>(queries.cols()));
+            Limits&& search_limit_of, Order order_choice, Neighbours& out) {
+  const auto n = static_cast<std::size_t>(queries.cols());
   typename Tree::Buffers buffers;
   std::vector<std::pair<double, PointIndex>> row;
-  tree.knn_batch_bounded(queries.data(), static_cast<std::size_t>(queries.cols()), k, search_limit_of, buffers,
-                 [&](std::size_t q, const std::vector<ours::Neighbour<T>>& best) {
-                   if constexpr (std::is_same_v<T, double>) {
-                     for (const auto& n : best) out.push(n.index, n.sq_dist);
-                   } else {
-                     const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
-                     row.clear();
-                     for (const auto& n : best) {
-                       const double sq = sq_dist_m2(query, model.col(n.index).data());
-                       if (sq <= limit_sq_m2) row.emplace_back(sq, n.index);
-                     }
-                     const std::size_t keep = std::min(row.size(), static_cast<std::size_t>(k));
-                     std::partial_sort(row.begin(), row.begin() + static_cast<std::ptrdiff_t>(keep), row.end());
-                     for (std::size_t i = 0; i < keep; ++i) out.push(row[i].second, row[i].first);
-                   }
-                   out.end_query();
-                 });
+  // Answers the count queries at xyz (the i-th is query query_of(i) of the batch) into rows; returns how
+  // many followed the previous one closely.
+  const auto answer = [&](const double* xyz, std::size_t count, auto&& query_of, Neighbours& rows) {
+    return tree.knn_batch_bounded(
+        xyz, count, k, [&](std::size_t i) { return search_limit_of(query_of(i)); }, buffers,
+        [&](std::size_t i, const std::vector<ours::Neighbour<T>>& best) {
+          append_row<T>(best, xyz + 3 * i, model, k, limit_sq_m2, row, rows);
+        });
+  };
+  out.reset(n, n);
+  const std::size_t probe = order_choice == Order::automatic ? std::min(n, kOrderProbe) : 0;
+  const std::size_t close = answer(queries.data(), probe, [](std::size_t i) { return i; }, out);
+  const std::size_t rest = n - probe;
+  const bool keep = order_choice == Order::caller || (probe > 0 && 2 * close >= probe);
+  if (keep || rest < kMinMortonBatch || rest > std::numeric_limits<std::uint32_t>::max()) {
+    answer(queries.data() + 3 * probe, rest, [probe](std::size_t i) { return probe + i; }, out);
+    return;
+  }
+  MortonScratch& scratch = morton_scratch();
+  const std::vector<std::uint32_t>& order = scratch.order.order;
+  ours::morton_order(queries.data() + 3 * probe, rest, scratch.order);
+  scratch.sorted_xyz.resize(3 * rest);
+  for (std::size_t s = 0; s < rest; ++s)
+    std::copy_n(queries.data() + 3 * (probe + order[s]), 3, scratch.sorted_xyz.data() + 3 * s);
+  scratch.answered.reset(rest, rest);
+  answer(scratch.sorted_xyz.data(), rest, [&](std::size_t s) { return probe + order[s]; }, scratch.answered);
+  append_in_query_order(scratch.answered, order, out);
+  scratch.release_if_large();
 }
 
 /// Fills out with every model point within radius_m (inclusive) of each query, in tree order.
@@ -76,6 +163,7 @@ class OursIndex : public SearchIndex {
     info.radius = Strategy::native;
     info.ranged = Strategy::native;
     info.scalar = reader.get_choice("scalar", "double", {"float", "double"});
+    reader.get_choice("order", "auto", {"auto", "caller", "morton"});
     info.params = reader.finish();
     info.bucket = reader.bucket();
     info.notes = info.scalar == "float" ? "float search widened by its rounding bound, refined in double"
@@ -83,7 +171,10 @@ class OursIndex : public SearchIndex {
     return info;
   }
 
-  explicit OursIndex(AdapterInfo info) : SearchIndex(std::move(info)), use_float_(this->info().params.at("scalar") == "float") {}
+  explicit OursIndex(AdapterInfo info)
+      : SearchIndex(std::move(info)),
+        use_float_(this->info().params.at("scalar") == "float"),
+        order_(order_named(this->info().params.at("order"))) {}
 
   std::size_t index_bytes() const override {
     return use_float_ ? float_.node_bytes() + float_.index_bytes() + float_.point_copy_bytes()
@@ -107,8 +198,8 @@ class OursIndex : public SearchIndex {
   void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
     const double limit_sq_m2 = max_dist_m * max_dist_m;
     const auto same = [limit_sq_m2](std::size_t) { return limit_sq_m2; };
-    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, k, limit_sq_m2, same, out);
-    else ours_rows::ranged<double>(double_, *model_, queries, k, limit_sq_m2, same, out);
+    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, k, limit_sq_m2, same, order_, out);
+    else ours_rows::ranged<double>(double_, *model_, queries, k, limit_sq_m2, same, order_, out);
   }
 
   // The hint's squared distance (computed as sq_dist_m2, as the double tree computes it; a float tree
@@ -121,8 +212,8 @@ class OursIndex : public SearchIndex {
       const double sq = sq_dist_m2(queries.col(static_cast<Eigen::Index>(q)).data(), model_->col(hints[q]).data());
       return std::min(sq, limit_sq_m2);
     };
-    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, 1, limit_sq_m2, hinted, out);
-    else ours_rows::ranged<double>(double_, *model_, queries, 1, limit_sq_m2, hinted, out);
+    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, 1, limit_sq_m2, hinted, order_, out);
+    else ours_rows::ranged<double>(double_, *model_, queries, 1, limit_sq_m2, hinted, order_, out);
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
@@ -133,6 +224,7 @@ class OursIndex : public SearchIndex {
  private:
   const Cloud* model_ = nullptr;
   bool use_float_ = false;
+  Order order_ = Order::automatic;
   Tree<float> float_;
   Tree<double> double_;
 };

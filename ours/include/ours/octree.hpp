@@ -121,17 +121,20 @@ class Octree {
     knn_batch_bounded(xyz, n, k, [limit_sq_m2](std::size_t) { return limit_sq_m2; }, buffers, emit);
   }
 
-  /// knn_batch with a limit per query: limit_sq_m2_of(i) (m^2) for query i.
+  /// knn_batch with a limit per query: limit_sq_m2_of(i) (m^2) for query i. Returns how many queries
+  /// fell in the previous query's leaf.
   template <class Limits, class Emit>
-  void knn_batch_bounded(const double* xyz, std::size_t n, int k, Limits&& limit_sq_m2_of, Buffers& buffers,
-                         Emit&& emit) const {
+  std::size_t knn_batch_bounded(const double* xyz, std::size_t n, int k, Limits&& limit_sq_m2_of, Buffers& buffers,
+                                Emit&& emit) const {
     OwnPath own;  // each query's path starts from the previous one's (see follow_own_path)
+    std::size_t same_leaf = 0;
     for (std::size_t i = 0; i < n; ++i) {
       const Query q = make_query(xyz + 3 * i);
-      follow_own_path(q, own);
+      same_leaf += follow_own_path(q, own) ? 1 : 0;
       knn_one(q, own, k, limit_sq_m2_of(i), buffers);
       emit(i, buffers.best);
     }
+    return same_leaf;
   }
 
   /// Returns every point within sq(radius) limit_sq_m2 (m^2) in buffers.best, in tree order
@@ -304,11 +307,12 @@ class Octree {
 
   // Moves own, the path of the previous query (or none), to the path of q, by integer bits alone
   // (Algorithm 1's "fast indexing"). The levels where both coordinates pick the same octants are kept
-  // and the descent resumes below them: queries in scan order mostly keep the whole path.
-  void follow_own_path(const Query& q, OwnPath& own) const {
+  // and the descent resumes below them: queries in scan order mostly keep the whole path. Returns
+  // whether the path is the previous one down to its end (the same leaf).
+  bool follow_own_path(const Query& q, OwnPath& own) const {
     if (n_ == 0 || root_is_leaf_) {
       own = OwnPath{};
-      return;
+      return true;
     }
     int level = 0;
     std::uint32_t index = 0;
@@ -317,7 +321,7 @@ class Octree {
       for (int d = 0; d < 3; ++d) differ |= q.cell[d] ^ own.cell[d];
       const int same_levels = differ == 0 ? kMaxLevel : kMaxLevel - (32 - __builtin_clz(differ));
       own.cell = q.cell;
-      if (same_levels > own.depth) return;  // the same octants down to the last step
+      if (same_levels > own.depth) return true;  // the same octants down to the last step
       level = same_levels;
       index = own.node[level];
     }
@@ -337,6 +341,7 @@ class Octree {
         break;
       }
     }
+    return false;
   }
 
   // Algorithm 1 after a look at the query's own leaf: that leaf usually brings the bound, and with it

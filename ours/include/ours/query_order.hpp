@@ -1,0 +1,102 @@
+#pragma once
+// The order a batch of queries is answered in. Consecutive queries that are neighbours in space share
+// most of their descent and often their leaf, which the trees' batch searches exploit; a batch in random
+// order gets none of that. morton_order() sorts a batch along the Z-order curve of a grid over the
+// queries' bounding box (10 bits an axis, an LSD radix sort: linear time), so a tree can answer it in
+// that order and return the rows in the caller's: the same answers whatever order the caller gives.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+namespace ours {
+
+/// Spreads the low 10 bits of v to every third bit (bit i to bit 3i).
+inline std::uint32_t spread_bits_3(std::uint32_t v) {
+  v &= 0x3ffu;
+  v = (v | (v << 16)) & 0x030000ffu;
+  v = (v | (v << 8)) & 0x0300f00fu;
+  v = (v | (v << 4)) & 0x030c30c3u;
+  v = (v | (v << 2)) & 0x09249249u;
+  return v;
+}
+
+/// Scratch space for morton_order, kept between batches so a batch allocates nothing.
+struct QueryOrder {
+  std::vector<std::uint64_t> keys;     ///< (Morton code << 32) | query index, sorted
+  std::vector<std::uint64_t> scratch;  ///< the radix sort's other buffer
+  std::vector<std::uint32_t> order;    ///< query indices in Morton order
+};
+
+namespace detail {
+
+/// The cell of coordinate x on a grid of 1024 cells from lo with scale cells a metre, clamped to the grid
+/// (also for NaN and for spans that overflow, whose scale is 0).
+inline std::uint32_t grid_cell(double x, double lo, double scale) {
+  const double t = (x - lo) * scale;
+  if (!(t > 0.0)) return 0;
+  return t >= 1023.0 ? 1023u : static_cast<std::uint32_t>(t);
+}
+
+/// Sorts keys by their upper 32 bits (30 used) in three stable passes of 10 bits.
+inline void radix_sort_codes(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch) {
+  scratch.resize(keys.size());
+  for (int shift = 32; shift < 62; shift += 10) {
+    std::array<std::uint32_t, 1024> start{};
+    for (std::uint64_t key : keys) ++start[(key >> shift) & 1023u];
+    std::uint32_t sum = 0;
+    for (auto& s : start) sum += std::exchange(s, sum);
+    for (std::uint64_t key : keys) scratch[start[(key >> shift) & 1023u]++] = key;
+    keys.swap(scratch);
+  }
+}
+
+}  // namespace detail
+
+/// Fills out.order with the n queries' indices (xyz: x,y,z triples, metres) in Morton order of a
+/// 1024^3 grid over their bounding box; queries in one cell keep the caller's order.
+inline void morton_order(const double* xyz, std::size_t n, QueryOrder& out) {
+  std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};
+  if (n > 0) {
+    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = xyz[d];
+    for (std::size_t i = 1; i < n; ++i)
+      for (int d = 0; d < 3; ++d) {
+        lo[d] = std::min(lo[d], xyz[3 * i + d]);
+        hi[d] = std::max(hi[d], xyz[3 * i + d]);
+      }
+  }
+  double span_m = 0;
+  for (int d = 0; d < 3; ++d) span_m = std::max(span_m, hi[d] - lo[d]);
+  // One cube for all axes keeps cells cubic; an infinite span (coordinates near the double range's
+  // ends) gives scale 0 and one cell, and NaNs fall in cell 0.
+  const double scale = span_m > 0.0 && span_m < 1e300 ? 1024.0 / span_m : 0.0;
+  out.keys.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* q = xyz + 3 * i;
+    const std::uint64_t code = spread_bits_3(detail::grid_cell(q[0], lo[0], scale)) |
+                               spread_bits_3(detail::grid_cell(q[1], lo[1], scale)) << 1 |
+                               spread_bits_3(detail::grid_cell(q[2], lo[2], scale)) << 2;
+    out.keys[i] = code << 32 | static_cast<std::uint32_t>(i);
+  }
+  detail::radix_sort_codes(out.keys, out.scratch);
+  out.order.resize(n);
+  for (std::size_t i = 0; i < n; ++i) out.order[i] = static_cast<std::uint32_t>(out.keys[i]);
+}
+
+/// The length (L1, metres) of the path through the n queries in the given order (all of them in
+/// stored order when order is null). Nearest-neighbour searches answered along a shorter path share more
+/// of their descents.
+inline double path_length_m(const double* xyz, std::size_t n, const std::uint32_t* order = nullptr) {
+  double length_m = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double* a = xyz + 3 * (order ? order[i - 1] : i - 1);
+    const double* b = xyz + 3 * (order ? order[i] : i);
+    length_m += std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
+  }
+  return length_m;
+}
+
+}  // namespace ours
