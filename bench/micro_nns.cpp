@@ -313,7 +313,7 @@ void register_all(const Subjects& all) {
       ms(benchmark::RegisterBenchmark(icp_step_name(p).c_str(), [p](benchmark::State& st) { bench_icp_step(st, p); }));
     }
   }
-  for (const std::string p : {std::string("fig3"), std::string(kCityScan)}) {
+  for (const std::string& p : {std::string("fig3"), std::string(kCityScan)}) {
     const Subject s{kThreadedBuild, kThreadedBuild, {}};
     for (int t = 2; t <= max_threads() && built_in(kThreadedBuild); ++t) {
       ms(benchmark::RegisterBenchmark(build_name(p, s.label, t).c_str(),
@@ -499,7 +499,7 @@ void print_build_targets(const RatioReporter& r, Tally& tally) {
 void print_threaded_builds(const RatioReporter& r) {
   if (max_threads() < 2) return;
   std::printf("\nBuild on threads (%s), ms of wall time and the speed-up over one thread:\n", kThreadedBuild);
-  for (const std::string model : {std::string("fig3"), std::string(kCityScan)}) {
+  for (const std::string& model : {std::string("fig3"), std::string(kCityScan)}) {
     for (int t = 2; t <= max_threads(); ++t) {
       const auto one = r.wall_ms(build_name(model, kThreadedBuild)), many = r.wall_ms(build_name(model, kThreadedBuild, t));
       std::printf("%-34s %2d threads: %9s ms, %sx\n", model.c_str(), t, number(many).c_str(), number(ratio(one, many)).c_str());

@@ -38,23 +38,6 @@ void append_row(const std::vector<ours::Neighbour<T>>& best, const double* query
   out.end_query();
 }
 
-/// Appends to out the rows answered in the order `order` (row s belongs to the order[s]-th query after
-/// those out holds), in query order.
-inline void append_in_query_order(const Neighbours& answered, const std::vector<std::uint32_t>& order,
-                                  Neighbours& out) {
-  const std::size_t first = out.n_queries(), n = order.size();
-  out.offsets.resize(first + n + 1);
-  for (std::size_t s = 0; s < n; ++s) out.offsets[first + order[s] + 1] = answered.count(s);
-  for (std::size_t q = first; q < first + n; ++q) out.offsets[q + 1] += out.offsets[q];
-  out.indices.resize(out.offsets.back());
-  out.sq_dists.resize(out.offsets.back());
-  for (std::size_t s = 0; s < n; ++s) {
-    const std::size_t from = answered.offsets[s], to = out.offsets[first + order[s]], count = answered.count(s);
-    std::copy_n(answered.indices.begin() + from, count, out.indices.begin() + to);
-    std::copy_n(answered.sq_dists.begin() + from, count, out.sq_dists.begin() + to);
-  }
-}
-
 /// Memory for answering a batch in Morton order, kept by each thread between batches: fresh memory costs
 /// a page fault a page on every batch (most of the time of a 60,000-query batch), unless it is huge.
 struct MortonScratch {
@@ -81,9 +64,19 @@ inline Order order_named(const std::string& name) {
 }
 
 /// How many queries of a batch "auto" answers in the caller's order before it judges that order.
-constexpr std::size_t kOrderProbe = 1024;
+constexpr std::size_t kOrderProbe = 256;
 /// The fewest queries worth sorting.
 constexpr std::size_t kMinMortonBatch = 64;
+
+/// Whether the first kOrderProbe of the n queries at xyz mostly follow each other closely in tree (at
+/// least half of them the previous one's leaf or descent, as a scan's points do).
+template <class Tree>
+bool follows_a_scan(const Tree& tree, const double* xyz, std::size_t n) {
+  typename Tree::Buffers buffers;
+  const std::size_t probe = std::min(n, kOrderProbe);
+  const std::size_t close = tree.knn_batch(xyz, probe, 1, 0.0, buffers, [](std::size_t, const auto&) {});
+  return 2 * close >= probe;
+}
 
 /// Fills out with the k nearest model points within limit_sq_m2 (m^2, inclusive) of each query. The tree
 /// searches query q within search_limit_of(q) <= limit_sq_m2, which must still hold the answer (a hint's
@@ -126,7 +119,7 @@ void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, d
     std::copy_n(queries.data() + 3 * (probe + order[s]), 3, scratch.sorted_xyz.data() + 3 * s);
   scratch.answered.reset(rest, rest);
   answer(scratch.sorted_xyz.data(), rest, [&](std::size_t s) { return probe + order[s]; }, scratch.answered);
-  append_in_query_order(scratch.answered, order, out);
+  append_rows_in_order(scratch.answered, order, out);
   scratch.release_if_large();
 }
 
@@ -214,6 +207,20 @@ class OursIndex : public SearchIndex {
     };
     if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, 1, limit_sq_m2, hinted, order_, out);
     else ours_rows::ranged<double>(double_, *model_, queries, 1, limit_sq_m2, hinted, order_, out);
+  }
+
+  // On threads, the slices are runs of the Morton order unless the batch follows a scan (or order=caller):
+  // sorted slice by slice instead, each thread's queries would be spread over the whole cloud.
+  std::vector<PointIndex> slicing_order(const Cloud& queries) const override {
+    const auto n = static_cast<std::size_t>(queries.cols());
+    if (order_ == Order::caller || n > std::numeric_limits<PointIndex>::max()) return {};
+    if (order_ == Order::automatic) {
+      const bool scan = use_float_ ? follows_a_scan(float_, queries.data(), n) : follows_a_scan(double_, queries.data(), n);
+      if (scan) return {};
+    }
+    ours::QueryOrder order;
+    ours::morton_order(queries.data(), n, order);
+    return std::move(order.order);
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {

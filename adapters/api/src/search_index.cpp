@@ -154,7 +154,8 @@ void SearchIndex::set_threads(int threads) {
 // and each is still a run of consecutive queries (scan order kept for the structures that exploit it).
 constexpr Eigen::Index kSlicesPerThread = 8;
 
-void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const SliceAnswer& answer) const {
+void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const SliceAnswer& answer,
+                                   bool may_reorder) const {
   const Eigen::Index n = queries.cols();
   const Eigen::Index most = std::max<Eigen::Index>(1, n / kMinQueriesPerThread);
   const int threads = info_.concurrency == Concurrency::queries ? static_cast<int>(std::min<Eigen::Index>(threads_, most)) : 1;
@@ -162,6 +163,13 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
     answer(queries, 0, out);
     return;
   }
+  const std::vector<PointIndex> order = may_reorder ? slicing_order(queries) : std::vector<PointIndex>{};
+  Cloud reordered;
+  if (!order.empty()) {
+    reordered.resize(3, n);
+    for (Eigen::Index i = 0; i < n; ++i) reordered.col(i) = queries.col(order[static_cast<std::size_t>(i)]);
+  }
+  const Cloud& sliced = order.empty() ? queries : reordered;
   const Eigen::Index slices = std::min(most, kSlicesPerThread * threads);
   std::vector<Neighbours> rows(static_cast<std::size_t>(slices));
   std::vector<std::exception_ptr> errors(static_cast<std::size_t>(slices));
@@ -171,7 +179,7 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
       const Eigen::Index first = n * s / slices;
       const Eigen::Index last = n * (s + 1) / slices;
       try {
-        const Cloud slice = queries.middleCols(first, last - first);
+        const Cloud slice = sliced.middleCols(first, last - first);
         answer(slice, first, rows[static_cast<std::size_t>(s)]);
       } catch (...) {
         errors[static_cast<std::size_t>(s)] = std::current_exception();
@@ -192,9 +200,16 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
   }
   std::size_t total = 0;
   for (const auto& r : rows) total += r.total();
+  Neighbours joined;
+  Neighbours& target = order.empty() ? out : joined;
+  target.reset(static_cast<std::size_t>(n), total);
+  for (const auto& r : rows) append_rows(r, target);
+  if (order.empty()) return;
   out.reset(static_cast<std::size_t>(n), total);
-  for (const auto& r : rows) append_rows(r, out);
+  append_rows_in_order(joined, order, out);
 }
+
+std::vector<PointIndex> SearchIndex::slicing_order(const Cloud&) const { return {}; }
 
 void SearchIndex::knn(const Cloud& queries, int k, Neighbours& out) const {
   check_supported(SearchKind::knn);
@@ -235,7 +250,7 @@ void SearchIndex::ranged_hinted(const Cloud& queries, double max_dist_m, const s
     if (slice.cols() == queries.cols()) return do_ranged_hinted(slice, max_dist_m, hints, rows);
     const auto begin = hints.begin() + first;
     do_ranged_hinted(slice, max_dist_m, std::vector<PointIndex>(begin, begin + slice.cols()), rows);
-  });
+  }, /*may_reorder=*/false);
 }
 
 void SearchIndex::do_ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>&,
@@ -369,6 +384,22 @@ void append_rows(const Neighbours& rows, Neighbours& out) {
   out.indices.insert(out.indices.end(), rows.indices.begin(), rows.indices.end());
   out.sq_dists.insert(out.sq_dists.end(), rows.sq_dists.begin(), rows.sq_dists.end());
   for (std::size_t q = 1; q < rows.offsets.size(); ++q) out.offsets.push_back(base + rows.offsets[q]);
+}
+
+void append_rows_in_order(const Neighbours& answered, const std::vector<PointIndex>& order, Neighbours& out) {
+  const std::size_t first = out.n_queries(), n = order.size();
+  out.offsets.resize(first + n + 1);
+  for (std::size_t s = 0; s < n; ++s) out.offsets[first + order[s] + 1] = answered.count(s);
+  for (std::size_t q = first; q < first + n; ++q) out.offsets[q + 1] += out.offsets[q];
+  out.indices.resize(out.offsets.back());
+  out.sq_dists.resize(out.offsets.back());
+  for (std::size_t s = 0; s < n; ++s) {
+    const auto from = static_cast<std::ptrdiff_t>(answered.offsets[s]);
+    const auto to = static_cast<std::ptrdiff_t>(out.offsets[first + order[s]]);
+    const auto count = static_cast<std::ptrdiff_t>(answered.count(s));
+    std::copy_n(answered.indices.begin() + from, count, out.indices.begin() + to);
+    std::copy_n(answered.sq_dists.begin() + from, count, out.sq_dists.begin() + to);
+  }
 }
 
 void filter_by_sq_dist(double limit_sq_m2, Neighbours& out) {

@@ -115,10 +115,11 @@ class Octree {
   }
 
   /// For each of n queries (x,y,z triples, metres) calls emit(i, buffers.best) with what knn() returns.
+  /// Returns how many queries fell in the previous query's leaf.
   template <class Emit>
-  void knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, Buffers& buffers,
-                 Emit&& emit) const {
-    knn_batch_bounded(xyz, n, k, [limit_sq_m2](std::size_t) { return limit_sq_m2; }, buffers, emit);
+  std::size_t knn_batch(const double* xyz, std::size_t n, int k, double limit_sq_m2, Buffers& buffers,
+                        Emit&& emit) const {
+    return knn_batch_bounded(xyz, n, k, [limit_sq_m2](std::size_t) { return limit_sq_m2; }, buffers, emit);
   }
 
   /// knn_batch with a limit per query: limit_sq_m2_of(i) (m^2) for query i. Returns how many queries
