@@ -6,7 +6,6 @@
 // that order and return the rows in the caller's: the same answers whatever order the caller gives.
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -84,19 +83,6 @@ inline void morton_order(const double* xyz, std::size_t n, QueryOrder& out) {
   detail::radix_sort_codes(out.keys, out.scratch);
   out.order.resize(n);
   for (std::size_t i = 0; i < n; ++i) out.order[i] = static_cast<std::uint32_t>(out.keys[i]);
-}
-
-/// The length (L1, metres) of the path through the n queries in the given order (all of them in
-/// stored order when order is null). Nearest-neighbour searches answered along a shorter path share more
-/// of their descents.
-inline double path_length_m(const double* xyz, std::size_t n, const std::uint32_t* order = nullptr) {
-  double length_m = 0;
-  for (std::size_t i = 1; i < n; ++i) {
-    const double* a = xyz + 3 * (order ? order[i - 1] : i - 1);
-    const double* b = xyz + 3 * (order ? order[i] : i);
-    length_m += std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
-  }
-  return length_m;
 }
 
 }  // namespace ours
