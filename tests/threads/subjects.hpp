@@ -12,7 +12,20 @@ namespace nnb::testing {
 struct ThreadSubject {
   std::string name;
   AdapterFactory make;
+  Params params;  ///< the adapter's parameters: a variant of an adapter is a subject of its own
+
+  std::unique_ptr<SearchIndex> create() const { return make(params); }
 };
+
+/// Variants worth their own subject: ours answering every batch in Morton order, which a small random
+/// batch on a small tree does not always choose (the threaded slicing then follows that order too).
+inline void add_variants(std::vector<ThreadSubject>& subjects) {
+  const std::size_t n = subjects.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (subjects[i].name.rfind("ours_", 0) == 0)
+      subjects.push_back({subjects[i].name + "_order_morton", subjects[i].make, {{"order", "morton"}}});
+  }
+}
 
 std::vector<ThreadSubject> thread_subjects();
 

@@ -16,9 +16,14 @@ namespace nnb::testing {
 
 std::vector<ThreadSubject> thread_subjects() {
   using namespace nnb::adapters;
-  return {{"brute_force", make_brute_force},     {"ours_kdtree", make_ours_kdtree},
-          {"ours_octree", make_ours_octree},     {"nanoflann_kdtree", make_nanoflann_kdtree},
-          {"simple_kdtree", make_simple_kdtree}, {"sfc_morton", make_sfc_morton}};
+  std::vector<ThreadSubject> subjects{{"brute_force", make_brute_force, {}},
+                                      {"ours_kdtree", make_ours_kdtree, {}},
+                                      {"ours_octree", make_ours_octree, {}},
+                                      {"nanoflann_kdtree", make_nanoflann_kdtree, {}},
+                                      {"simple_kdtree", make_simple_kdtree, {}},
+                                      {"sfc_morton", make_sfc_morton, {}}};
+  add_variants(subjects);
+  return subjects;
 }
 
 }  // namespace nnb::testing

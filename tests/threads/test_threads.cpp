@@ -70,11 +70,11 @@ TEST_P(Threads, AnswerAsOnOneThread) {
   const Cloud model = cube_points(3000, 1);
   // More than kMinQueriesPerThread a thread for every thread count below, and an uneven split.
   const Cloud queries = 1.2 * cube_points(2 * 5 * nnb::SearchIndex::kMinQueriesPerThread + 7, 2);
-  auto one = GetParam().make({});
+  auto one = GetParam().create();
   one->build(model);
   const nnb::Concurrency concurrency = one->info().concurrency;
   for (int threads : {2, 5}) {
-    auto many = GetParam().make({});
+    auto many = GetParam().create();
     many->set_threads(threads);
     many->build(model);
     EXPECT_EQ(many->threads_used(), concurrency == nnb::Concurrency::single ? 1 : threads)
@@ -87,8 +87,8 @@ TEST_P(Threads, AnswerAsOnOneThread) {
 TEST_P(Threads, SmallBatchesStayWhole) {
   const Cloud model = cube_points(500, 3);
   const Cloud queries = cube_points(nnb::SearchIndex::kMinQueriesPerThread + 1, 4);
-  auto one = GetParam().make({});
-  auto many = GetParam().make({});
+  auto one = GetParam().create();
+  auto many = GetParam().create();
   many->set_threads(8);
   one->build(model);
   many->build(model);
@@ -98,12 +98,12 @@ TEST_P(Threads, SmallBatchesStayWhole) {
 // Adapters that build on threads build the index they build on one: the same answers. The cloud is large
 // enough for a threaded build to start threads (ours: 2^17 points).
 TEST_P(Threads, BuildOnThreadsAnswersAsOnOne) {
-  auto probe = GetParam().make({});
+  auto probe = GetParam().create();
   if (!probe->info().builds_on_threads) return;  // builds on one thread: nothing more to compare
   const Cloud model = cube_points(150000, 7);
   const Cloud queries = cube_points(2000, 8);
   probe->build(model);
-  auto many = GetParam().make({});
+  auto many = GetParam().create();
   many->set_threads(3);
   many->build(model);
   EXPECT_EQ(many->build_threads_used(), 3);
@@ -114,7 +114,7 @@ TEST_P(Threads, BuildOnThreadsAnswersAsOnOne) {
 }
 
 TEST(ThreadsAsked, OutsideOneToMaxIsRefused) {
-  auto index = nnb::testing::thread_subjects().front().make({});
+  auto index = nnb::testing::thread_subjects().front().create();
   EXPECT_THROW(index->set_threads(0), nnb::InputError);
   EXPECT_THROW(index->set_threads(nnb::SearchIndex::kMaxThreads + 1), nnb::InputError);
   EXPECT_EQ(index->threads(), 1);
@@ -124,13 +124,44 @@ TEST(ThreadsAsked, OutsideOneToMaxIsRefused) {
 
 // A bad query (caught before any slice runs) is refused as on one thread.
 TEST(ThreadsAsked, BadQueriesAreRefusedBeforeSplitting) {
-  auto index = nnb::testing::thread_subjects().front().make({});
+  auto index = nnb::testing::thread_subjects().front().create();
   index->set_threads(4);
   index->build(cube_points(100, 5));
   Cloud queries = cube_points(4 * nnb::SearchIndex::kMinQueriesPerThread, 6);
   queries(1, 700) = std::numeric_limits<double>::quiet_NaN();
   Neighbours out;
   EXPECT_THROW(index->ranged(queries, 1, 0.1, out), nnb::InputError);
+}
+
+// Rows answered in pieces, in another order, land after the rows out holds, each at its own query.
+TEST(RowsInOrder, PiecesReturnToTheCallersOrder) {
+  Neighbours out;
+  out.reset();
+  out.push(7, 0.5);
+  out.end_query();
+  std::vector<Neighbours> pieces(2);
+  for (auto& piece : pieces) piece.reset();
+  // Answered order: queries 2, 0 (first piece), then 3, 1 (second); query q has q neighbours.
+  const std::vector<nnb::PointIndex> order{2, 0, 3, 1};
+  for (std::size_t s = 0; s < order.size(); ++s) {
+    Neighbours& piece = pieces[s / 2];
+    for (nnb::PointIndex j = 0; j < order[s]; ++j) piece.push(10 * order[s] + j, 0.1 * order[s]);
+    piece.end_query();
+  }
+  nnb::append_rows_in_order(pieces, order, out);
+  ASSERT_EQ(out.n_queries(), 5u);
+  EXPECT_EQ(out.count(0), 1u);
+  for (std::size_t q = 0; q < 4; ++q) {
+    ASSERT_EQ(out.count(q + 1), q);
+    for (std::size_t j = 0; j < q; ++j) {
+      EXPECT_EQ(out.indices[out.offsets[q + 1] + j], 10 * q + j);
+      EXPECT_EQ(out.sq_dists[out.offsets[q + 1] + j], 0.1 * static_cast<double>(q));
+    }
+  }
+  const Neighbours before = out;
+  std::vector<Neighbours> short_of_one(1, pieces[0]);
+  EXPECT_THROW(nnb::append_rows_in_order(short_of_one, order, out), std::logic_error);
+  EXPECT_TRUE(same_rows(before, out));
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryAdapter, Threads, ::testing::ValuesIn(nnb::testing::thread_subjects()),

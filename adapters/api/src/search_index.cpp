@@ -164,12 +164,6 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
     return;
   }
   const std::vector<PointIndex> order = may_reorder ? slicing_order(queries) : std::vector<PointIndex>{};
-  Cloud reordered;
-  if (!order.empty()) {
-    reordered.resize(3, n);
-    for (Eigen::Index i = 0; i < n; ++i) reordered.col(i) = queries.col(order[static_cast<std::size_t>(i)]);
-  }
-  const Cloud& sliced = order.empty() ? queries : reordered;
   const Eigen::Index slices = std::min(most, kSlicesPerThread * threads);
   std::vector<Neighbours> rows(static_cast<std::size_t>(slices));
   std::vector<std::exception_ptr> errors(static_cast<std::size_t>(slices));
@@ -179,8 +173,12 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
       const Eigen::Index first = n * s / slices;
       const Eigen::Index last = n * (s + 1) / slices;
       try {
-        const Cloud slice = sliced.middleCols(first, last - first);
-        answer(slice, first, rows[static_cast<std::size_t>(s)]);
+        Cloud slice(3, last - first);
+        for (Eigen::Index i = first; i < last; ++i)
+          slice.col(i - first) = queries.col(order.empty() ? i : order[static_cast<std::size_t>(i)]);
+        Neighbours own;  // filled on this thread's stack: rows[] side by side would share cache lines
+        answer(slice, first, own);
+        rows[static_cast<std::size_t>(s)] = std::move(own);
       } catch (...) {
         errors[static_cast<std::size_t>(s)] = std::current_exception();
       }
@@ -198,15 +196,15 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
   for (const auto& error : errors) {
     if (error) std::rethrow_exception(error);
   }
+  out.reset(0);
+  if (!order.empty()) {
+    append_rows_in_order(rows, order, out);
+    return;
+  }
   std::size_t total = 0;
   for (const auto& r : rows) total += r.total();
-  Neighbours joined;
-  Neighbours& target = order.empty() ? out : joined;
-  target.reset(static_cast<std::size_t>(n), total);
-  for (const auto& r : rows) append_rows(r, target);
-  if (order.empty()) return;
   out.reset(static_cast<std::size_t>(n), total);
-  append_rows_in_order(joined, order, out);
+  for (const auto& r : rows) append_rows(r, out);
 }
 
 std::vector<PointIndex> SearchIndex::slicing_order(const Cloud&) const { return {}; }
@@ -386,20 +384,48 @@ void append_rows(const Neighbours& rows, Neighbours& out) {
   for (std::size_t q = 1; q < rows.offsets.size(); ++q) out.offsets.push_back(base + rows.offsets[q]);
 }
 
-void append_rows_in_order(const Neighbours& answered, const std::vector<PointIndex>& order, Neighbours& out) {
+namespace {
+
+/// Row j of pieces[0], then of pieces[1], ... is the row of query order[s] (s counting across the pieces).
+void append_pieces_in_order(const std::vector<const Neighbours*>& pieces, const std::vector<PointIndex>& order,
+                            Neighbours& out) {
   const std::size_t first = out.n_queries(), n = order.size();
+  std::size_t rows = 0;
+  for (const Neighbours* piece : pieces) rows += piece->n_queries();
+  if (rows != n) throw std::logic_error("append_rows_in_order: " + std::to_string(rows) + " rows for an order of " +
+                                        std::to_string(n) + " queries");
   out.offsets.resize(first + n + 1);
-  for (std::size_t s = 0; s < n; ++s) out.offsets[first + order[s] + 1] = answered.count(s);
+  std::size_t s = 0;
+  for (const Neighbours* piece : pieces) {
+    for (std::size_t j = 0; j < piece->n_queries(); ++j, ++s) out.offsets[first + order[s] + 1] = piece->count(j);
+  }
   for (std::size_t q = first; q < first + n; ++q) out.offsets[q + 1] += out.offsets[q];
   out.indices.resize(out.offsets.back());
   out.sq_dists.resize(out.offsets.back());
-  for (std::size_t s = 0; s < n; ++s) {
-    const auto from = static_cast<std::ptrdiff_t>(answered.offsets[s]);
-    const auto to = static_cast<std::ptrdiff_t>(out.offsets[first + order[s]]);
-    const auto count = static_cast<std::ptrdiff_t>(answered.count(s));
-    std::copy_n(answered.indices.begin() + from, count, out.indices.begin() + to);
-    std::copy_n(answered.sq_dists.begin() + from, count, out.sq_dists.begin() + to);
+  s = 0;
+  for (const Neighbours* piece : pieces) {
+    for (std::size_t j = 0; j < piece->n_queries(); ++j, ++s) {
+      const auto from = static_cast<std::ptrdiff_t>(piece->offsets[j]);
+      const auto to = static_cast<std::ptrdiff_t>(out.offsets[first + order[s]]);
+      const auto count = static_cast<std::ptrdiff_t>(piece->count(j));
+      std::copy_n(piece->indices.begin() + from, count, out.indices.begin() + to);
+      std::copy_n(piece->sq_dists.begin() + from, count, out.sq_dists.begin() + to);
+    }
   }
+}
+
+}  // namespace
+
+void append_rows_in_order(const Neighbours& answered, const std::vector<PointIndex>& order, Neighbours& out) {
+  append_pieces_in_order({&answered}, order, out);
+}
+
+void append_rows_in_order(const std::vector<Neighbours>& pieces, const std::vector<PointIndex>& order,
+                          Neighbours& out) {
+  std::vector<const Neighbours*> all;
+  all.reserve(pieces.size());
+  for (const auto& piece : pieces) all.push_back(&piece);
+  append_pieces_in_order(all, order, out);
 }
 
 void filter_by_sq_dist(double limit_sq_m2, Neighbours& out) {

@@ -208,6 +208,9 @@ void append_rows(const Neighbours& rows, Neighbours& out);
 /// Appends rows answered in another order: row s of answered belongs to the order[s]-th query after
 /// those out already holds; they are appended in query order.
 void append_rows_in_order(const Neighbours& answered, const std::vector<PointIndex>& order, Neighbours& out);
+/// The same for rows answered in pieces: the rows of pieces[0], then of pieces[1], ... follow order.
+void append_rows_in_order(const std::vector<Neighbours>& pieces, const std::vector<PointIndex>& order,
+                          Neighbours& out);
 /// Sorts each query's entries by (sq_dist, index) and keeps at most k of them.
 void sort_and_truncate(std::size_t k, Neighbours& out);
 
