@@ -1,0 +1,180 @@
+#!/usr/bin/env bash
+# The reference run: every results file of results/reference, one step after the other, from the clean commit
+# checked out in the source tree, written to a folder outside it (the tree must stay clean while it runs).
+# Resumable across sessions: a finished step is not run again, a stopped one resumes its file. Nothing else
+# may run meanwhile; the log records each step's command, commit and load before and after.
+#
+#   scripts/reference_run.sh --out DIR [--until HH:MM] [--steps a,b] [--source TREE] [--no-build]
+#   scripts/reference_run.sh --out DIR --list          the steps and their commands; runs nothing
+#   scripts/reference_run.sh --out DIR --install       copy DIR's files into this clone's results/reference
+#                                                      (finished ones in place, unfinished ones to pending/)
+#   scripts/reference_run.sh --out DIR --from-pending ...   first copy this clone's pending/ files into DIR,
+#                                                      so that a new machine resumes them
+# --until stops the step in flight at that time (it resumes next time) and starts none after it.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+src=$here out="" until="" only="" build=1 list=0 install=0 from_pending=0
+die() { echo "reference_run: error: $*" >&2; exit 2; }
+while [ $# -gt 0 ]; do
+  case $1 in
+    --out) out=${2:?}; shift ;;
+    --until) until=${2:?}; shift ;;
+    --steps) only=${2:?}; shift ;;
+    --source) src=$(cd "${2:?}" && pwd) || die "no folder $2"; shift ;;
+    --no-build) build=0 ;;
+    --list) list=1 ;;
+    --install) install=1 ;;
+    --from-pending) from_pending=1 ;;
+    *) die "unknown option '$1' (see the head of $0)" ;;
+  esac
+  shift
+done
+[ -n "$out" ] || die "--out DIR is required (a folder outside the source tree)"
+mkdir -p "$out" && out=$(cd "$out" && pwd)
+case $out/ in "$src"/*) die "--out $out lies inside the source tree $src: the tree would not stay clean" ;; esac
+bench=${NNB_BENCH_DIR:-build/release/bench}
+
+steps=(micro_nns quick scale icp_accuracy real_pairs icp_bucket icp_real paper_grid paper_grid_spatialindex real)
+# The output of each step, as results/reference names it.
+output_of() {
+  case $1 in
+    micro_nns) echo micro_nns/micro_nns.json ;;
+    quick | scale | paper_grid | paper_grid_spatialindex | real) echo "sweep_$1.json" ;;
+    *) echo "$1.json" ;;
+  esac
+}
+
+# Where --install keeps STEP's unfinished file in this clone.
+pending_of() { local f; f=$(output_of "$1"); echo "$here/results/reference/pending/$(basename "${f%.json}").partial.json"; }
+
+grid_datasets() {
+  local shapes=(hollow_sphere filled_sphere hollow_cube filled_cube) m q pairs=()
+  for m in "${shapes[@]}"; do for q in "${shapes[@]}"; do pairs+=("$m:$q"); done; done
+  (IFS=,; echo "${pairs[*]}")
+}
+
+# Every adapter of this build but the named ones, comma-separated.
+adapters_but() {
+  "$bench/nns_query" --list | cut -f1 | grep -vxF -f <(printf '%s\n' "$@") | paste -sd,
+}
+
+# The command of STEP into the array cmd; the paper grid at 3 repetitions and a 0.5 s budget (as written,
+# with up to 100 repetitions and a 10 s budget, it takes days here), libspatialindex in a file of its own.
+command_of() {
+  local o
+  o=$out/$(output_of "$1")
+  local grid=(--experiment paper --datasets "$(grid_datasets)" --strategies default --repetitions 3 --budget 0.5)
+  case $1 in
+    micro_nns) cmd=("$bench/micro_nns" --benchmark_repetitions=3 "--benchmark_out=$o" --benchmark_out_format=json) ;;
+    quick | scale) cmd=("$bench/run_sweep" --experiment "$1" --out "$o") ;;
+    icp_accuracy) cmd=("$bench/run_icp" --experiment icp_accuracy --out "$o") ;;
+    real_pairs) cmd=("$bench/nns_query" --describe-real-pairs "$o") ;;
+    icp_bucket) cmd=("$bench/run_icp" --experiment icp_bucket_coarse --out "$o") ;;
+    icp_real) cmd=("$bench/run_icp" --experiment icp_real --buckets-from "$out/icp_bucket.json" --out "$o") ;;
+    paper_grid) cmd=("$bench/run_sweep" "${grid[@]}" --adapters
+                     "$(adapters_but brute_force spatialindex_quadratic spatialindex_rstar)" --out "$o") ;;
+    paper_grid_spatialindex)
+      cmd=("$bench/run_sweep" "${grid[@]}" --adapters "spatialindex_quadratic,spatialindex_rstar" --out "$o") ;;
+    real) cmd=("$bench/run_sweep" --experiment real --strategies default --repetitions 3 --budget 1 --out "$o") ;;
+  esac
+  if [ -f "$o" ] && [[ $1 != micro_nns && $1 != real_pairs ]]; then cmd+=(--resume); fi
+}
+
+selected=("${steps[@]}")
+if [ -n "$only" ]; then IFS=, read -r -a selected <<< "$only"; fi
+for s in "${selected[@]}"; do [[ " ${steps[*]} " == *" $s "* ]] || die "unknown step '$s' (steps: ${steps[*]})"; done
+
+if [ $install = 1 ]; then
+  dest=$here/results/reference
+  for s in "${steps[@]}"; do
+    f=$(output_of "$s"); [ -f "$out/$f" ] || continue
+    if [ -f "$out/.done/$s" ]; then
+      mkdir -p "$(dirname "$dest/$f")"; cp "$out/$f" "$dest/$f"; rm -f "$(pending_of "$s")"
+      [ "$s" = micro_nns ] && cp "$out/micro_nns/micro_nns.txt" "$dest/micro_nns/"
+      echo "installed $f"
+    else
+      mkdir -p "$dest/pending"; cp "$out/$f" "$(pending_of "$s")"
+      echo "pending $f (unfinished; copy it back to $out/$f to resume)"
+    fi
+  done
+  exit 0
+fi
+
+if [ $from_pending = 1 ]; then
+  for s in "${selected[@]}"; do
+    f=$(output_of "$s")
+    if [ ! -f "$out/$f" ] && [ -f "$(pending_of "$s")" ]; then
+      mkdir -p "$(dirname "$out/$f")"; cp "$(pending_of "$s")" "$out/$f"; echo "resuming $f from $(pending_of "$s")"
+    fi
+  done
+fi
+
+cd "$src"
+if [ $list = 1 ]; then
+  for s in "${selected[@]}"; do
+    command_of "$s"; state=to-do; [ -f "$out/.done/$s" ] && state="done"
+    printf '%s\t%s\t%s\n' "$s" "$state" "${cmd[*]}"
+  done
+  exit 0
+fi
+
+clean_commit() {
+  [ -z "$(git status --porcelain)" ] || die "the tree $src has changes: a reference run comes from a clean commit"
+  git rev-parse HEAD
+}
+commit=$(clean_commit)
+if [ -f "$out/commit" ]; then
+  [ "$(cat "$out/commit")" = "$commit" ] || die "$out holds a run from commit $(cat "$out/commit"), HEAD is $commit"
+else
+  echo "$commit" > "$out/commit"
+fi
+deadline=""
+if [ -n "$until" ]; then deadline=$(date -d "$until" +%s) || die "--until '$until' is not a time"; fi
+
+if [ $build = 1 ]; then
+  ./scripts/install_deps.sh
+  . scripts/anchors.sh
+  cmake --preset release
+  cmake --build --preset release -j "$(nproc 2>/dev/null || echo 2)"
+fi
+
+log() { echo "$(date -Is) $* | load $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/log.txt"; }
+
+run_micro_nns() {  # its JSON lacks the load and the tree state: a header and footer in micro_nns.txt say them
+  mkdir -p "$out/micro_nns"
+  {
+    echo "# ${cmd[*]}"
+    echo "# $("$bench/micro_nns" --version), tree clean; nothing else running"
+    echo "# before: $(uptime)"
+    "${cmd[@]}" 2>&1
+    echo "# after: $(uptime)"
+  } > "$out/micro_nns/micro_nns.txt"
+}
+
+mkdir -p "$out/.done"
+for s in "${selected[@]}"; do
+  [ -f "$out/.done/$s" ] && continue
+  [ "$(clean_commit)" = "$commit" ] || die "HEAD moved during the run"
+  left=""
+  if [ -n "$deadline" ]; then
+    left=$((deadline - $(date +%s)))
+    if [ "$left" -le 0 ]; then log "stop before $s (--until $until)"; exit 0; fi
+  fi
+  command_of "$s"
+  log "start $s at $(git rev-parse --short HEAD), tree clean: ${cmd[*]}"
+  rc=0
+  if [ "$s" = micro_nns ]; then
+    run_micro_nns || rc=$?
+  elif [ -n "$left" ]; then
+    timeout --signal=TERM "$left" "${cmd[@]}" > "$out/$s.stdout" 2> "$out/$s.stderr" || rc=$?
+  else
+    "${cmd[@]}" > "$out/$s.stdout" 2> "$out/$s.stderr" || rc=$?
+  fi
+  log "end $s rc=$rc"
+  if [ $rc != 0 ]; then
+    [ $rc = 124 ] && { log "stopped $s at --until $until; rerun to resume it"; exit 0; }
+    echo "reference_run: $s failed (exit $rc); its stderr: $out/$s.stderr" >&2; exit 1
+  fi
+  touch "$out/.done/$s"
+done
+log "all steps done"

@@ -1,0 +1,174 @@
+#!/usr/bin/env python3
+"""scripts/reference_run.sh with stand-in programs: test_reference_run.py REFERENCE_RUN_SH WORKDIR.
+
+The stand-ins (run_sweep, run_icp, nns_query, micro_nns) record their arguments and write their --out file,
+so the script's order, resumption, refusals and installation are checked in seconds, without a build.
+"""
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+SCRIPT, WORK = Path(sys.argv[1]).resolve(), Path(sys.argv[2]).resolve()
+STEPS = ["micro_nns", "quick", "scale", "icp_accuracy", "real_pairs", "icp_bucket", "icp_real", "paper_grid",
+         "paper_grid_spatialindex", "real"]
+
+STAND_IN = r'''#!/usr/bin/env python3
+import os, sys, time
+name = os.path.basename(sys.argv[0])
+args = sys.argv[1:]
+with open(os.environ["CALLS"], "a") as f:
+    f.write(name + " " + " ".join(args) + "\n")
+if args[:1] == ["--list"]:
+    print("brute_force\tx\nours_kdtree\tx\nspatialindex_rstar\tx\nspatialindex_quadratic\tx\nnanoflann_kdtree\tx")
+    sys.exit(0)
+if args[:1] == ["--version"]:
+    print(name + " 0.1 (stand-in)")
+    sys.exit(0)
+out = [a.split("=", 1)[1] for a in args if a.startswith("--benchmark_out=")]
+out += [args[i + 1] for i, a in enumerate(args[:-1]) if a in ("--out", "--describe-real-pairs")]
+if os.environ.get("SLOW") and "--experiment" in args and args[args.index("--experiment") + 1] == os.environ["SLOW"]:
+    open(out[0], "w").write("{}")  # a partial file, as a killed run leaves one
+    time.sleep(60)
+open(out[0], "w").write('{"benchmarks": []}')
+'''
+
+
+def fail(message):
+    print(f"FAIL: {message}")
+    sys.exit(1)
+
+
+def check(condition, message):
+    if not condition:
+        fail(message)
+
+
+def git(tree, *args):
+    subprocess.run(["git", "-C", str(tree), *args], check=True, capture_output=True)
+
+
+def make_tree(path):
+    shutil.rmtree(path, ignore_errors=True)
+    path.mkdir(parents=True)
+    (path / "README.md").write_text("a tree\n")
+    git(path, "init", "-q")
+    git(path, "add", "README.md")
+    git(path, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "two")
+    return path
+
+
+def make_bench(path):
+    path.mkdir(parents=True, exist_ok=True)
+    for name in ("run_sweep", "run_icp", "nns_query", "micro_nns"):
+        (path / name).write_text(STAND_IN)
+        (path / name).chmod(0o755)
+    return path
+
+
+def run(tree, out, *args, expect=0, env_extra=None, timeout=60):
+    env = dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS), **(env_extra or {}))
+    proc = subprocess.run([str(SCRIPT), "--source", str(tree), "--out", str(out), "--no-build", *args],
+                          capture_output=True, text=True, env=env, timeout=timeout)
+    if expect == 0:
+        check(proc.returncode == 0, f"{args}: exit {proc.returncode}: {proc.stderr}")
+    else:
+        check(proc.returncode == expect, f"{args}: exit {proc.returncode}, expected {expect}: {proc.stderr}")
+        lines = proc.stderr.splitlines()
+        check(len(lines) == 1 and lines[0].startswith("reference_run: error: "), f"not one error line: {lines}")
+    return proc
+
+
+def calls():
+    return CALLS.read_text().splitlines() if CALLS.exists() else []
+
+
+shutil.rmtree(WORK, ignore_errors=True)
+WORK.mkdir(parents=True)
+BENCH = make_bench(WORK / "bench")
+CALLS = WORK / "calls.txt"
+tree = make_tree(WORK / "tree")
+
+# Refusals: an output folder inside the tree, a dirty tree, an unknown step.
+run(tree, tree / "out", expect=2)
+(tree / "README.md").write_text("changed\n")
+run(tree, WORK / "out", expect=2)
+git(tree, "checkout", "-q", "README.md")
+run(tree, WORK / "out", "--steps", "nonsense", expect=2)
+check(not calls(), f"a refused run called programs: {calls()}")
+
+# A whole run: every step once, in order, each output written, the grid without brute force and
+# libspatialindex and libspatialindex on its own, ICP on the real pairs at the bucket run's best buckets.
+out = WORK / "out"
+run(tree, out)
+ran = [c for c in calls() if "--list" not in c and "--version" not in c]
+check(len(ran) == len(STEPS), f"{len(ran)} programs ran for {len(STEPS)} steps: {ran}")
+for step in STEPS:
+    check((out / ".done" / step).exists(), f"{step} not marked done")
+grid = next(c for c in ran if "--datasets" in c and "ours_kdtree" in c)
+check("brute_force" not in grid and "spatialindex" not in grid, f"the grid's adapters: {grid}")
+check("hollow_sphere:filled_cube" in grid and grid.count(":") == 16, f"the grid's 16 combinations: {grid}")
+check(any("--adapters spatialindex_quadratic,spatialindex_rstar" in c for c in ran), "no libspatialindex grid")
+check(any(f"--buckets-from {out}/icp_bucket.json" in c for c in ran), "ICP on the real pairs not at tuned buckets")
+check((out / "micro_nns" / "micro_nns.txt").read_text().count("# before: ") == 1, "micro_nns.txt lacks its load")
+log = (out / "log.txt").read_text()
+check(log.count(" start ") == len(STEPS) and "all steps done" in log and "load " in log, f"log: {log}")
+listed = run(tree, out, "--list").stdout.splitlines()
+rel = subprocess.run([str(SCRIPT), "--source", str(tree), "--out", str(out), "--list"], capture_output=True, text=True,
+                     cwd="/", env=dict(os.environ, NNB_BENCH_DIR=os.path.relpath(BENCH, tree), CALLS=str(CALLS)))
+check(rel.returncode == 0 and "ours_kdtree" in rel.stdout and not rel.stderr, f"--list from another folder: {rel.stderr}")
+check([line.split("\t")[:2] for line in listed] == [[s, "done"] for s in STEPS], f"--list: {listed}")
+
+# Run again: nothing reruns. A new commit: the folder's run is refused.
+before = len(calls())
+run(tree, out)
+check(len(calls()) == before, "a finished step ran again")
+(tree / "README.md").write_text("three\n")
+git(tree, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qam", "three")
+run(tree, out, expect=2)
+
+# --until stops the step in flight, which then resumes its file; a later step waits for it.
+out2 = WORK / "out2"
+CALLS.unlink()
+start = time.monotonic()
+run(tree, out2, "--until", "now + 5 seconds", env_extra={"SLOW": "icp_bucket_coarse"})
+check(time.monotonic() - start < 30, "--until did not stop the step in flight")
+check(not (out2 / ".done" / "icp_bucket").exists() and (out2 / "icp_bucket.json").exists(), "no partial file kept")
+check(not (out2 / ".done" / "icp_real").exists(), "a step after the stopped one ran")
+run(tree, out2)
+resumed = [c for c in calls() if "icp_bucket_coarse" in c]
+check(len(resumed) == 2 and "--resume" in resumed[1] and "--resume" not in resumed[0], f"not resumed: {resumed}")
+
+# A failed step stops the run (exit 1), leaving the later steps to do.
+out3 = WORK / "out3"
+(BENCH / "run_icp").write_text("#!/bin/sh\nexit 3\n")
+proc = subprocess.run([str(SCRIPT), "--source", str(tree), "--out", str(out3), "--no-build"],
+                      capture_output=True, text=True, env=dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS)))
+check(proc.returncode == 1 and "icp_accuracy failed" in proc.stderr, f"failed step: {proc.returncode} {proc.stderr}")
+check(not (out3 / ".done" / "real_pairs").exists(), "steps after a failure ran")
+
+# --install into a clone: finished files in place, unfinished ones to pending/.
+clone = WORK / "clone"
+shutil.copytree(SCRIPT.parent.parent / "scripts", clone / "scripts")
+(out3 / "icp_accuracy.json").write_text("{}")
+proc = subprocess.run([str(clone / "scripts" / SCRIPT.name), "--out", str(out3), "--install"],
+                      capture_output=True, text=True)
+check(proc.returncode == 0, f"--install: {proc.stderr}")
+reference = clone / "results" / "reference"
+check((reference / "sweep_scale.json").exists() and (reference / "micro_nns" / "micro_nns.txt").exists(),
+      f"finished files not installed: {proc.stdout}")
+check((reference / "pending" / "icp_accuracy.partial.json").exists(), f"unfinished file not pending: {proc.stdout}")
+check(not (reference / "icp_accuracy.json").exists(), "an unfinished file installed as finished")
+
+# --from-pending on another machine: the pending file is copied into the new folder and resumed.
+out4 = WORK / "out4"
+(BENCH / "run_icp").write_text(STAND_IN)
+CALLS.unlink()
+env = dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS))
+proc = subprocess.run([str(clone / "scripts" / SCRIPT.name), "--source", str(tree), "--out", str(out4), "--no-build",
+                       "--steps", "icp_accuracy", "--from-pending"], capture_output=True, text=True, env=env)
+check(proc.returncode == 0 and (out4 / ".done" / "icp_accuracy").exists(), f"--from-pending: {proc.stderr}")
+check(calls() == [f"run_icp --experiment icp_accuracy --out {out4}/icp_accuracy.json --resume"], f"{calls()}")
+print("reference_run: all checks passed")
