@@ -7,7 +7,7 @@
 #   scripts/reference_run.sh --out DIR [--until HH:MM] [--steps a,b] [--source TREE] [--no-build]
 #   scripts/reference_run.sh --out DIR --list          the steps and their commands; runs nothing
 #   scripts/reference_run.sh --out DIR --install       copy DIR's files into this clone's results/reference
-#                                                      (finished ones in place, unfinished ones to pending/)
+#                                                      (finished ones in place, unfinished ones gzipped to pending/)
 #   scripts/reference_run.sh --out DIR --from-pending ...   first copy this clone's pending/ files into DIR,
 #                                                      so that a new machine resumes them
 # --until stops the step in flight at that time (it resumes next time) and starts none after it.
@@ -44,8 +44,8 @@ output_of() {
   esac
 }
 
-# Where --install keeps STEP's unfinished file in this clone.
-pending_of() { local f; f=$(output_of "$1"); echo "$here/results/reference/pending/$(basename "${f%.json}").partial.json"; }
+# Where --install keeps STEP's unfinished file in this clone, compressed (a half grid is 50 MB of JSON).
+pending_of() { local f; f=$(output_of "$1"); echo "$here/results/reference/pending/$(basename "${f%.json}").partial.json.gz"; }
 
 grid_datasets() {
   local shapes=(hollow_sphere filled_sphere hollow_cube filled_cube) m q pairs=()
@@ -93,8 +93,8 @@ if [ $install = 1 ]; then
       [ "$s" = micro_nns ] && cp "$out/micro_nns/micro_nns.txt" "$dest/micro_nns/"
       echo "installed $f"
     else
-      mkdir -p "$dest/pending"; cp "$out/$f" "$(pending_of "$s")"
-      echo "pending $f (unfinished; copy it back to $out/$f to resume)"
+      mkdir -p "$dest/pending"; gzip -9c "$out/$f" > "$(pending_of "$s")"
+      echo "pending $f (unfinished; --from-pending resumes it)"
     fi
   done
   exit 0
@@ -104,7 +104,7 @@ if [ $from_pending = 1 ]; then
   for s in "${selected[@]}"; do
     f=$(output_of "$s")
     if [ ! -f "$out/$f" ] && [ -f "$(pending_of "$s")" ]; then
-      mkdir -p "$(dirname "$out/$f")"; cp "$(pending_of "$s")" "$out/$f"; echo "resuming $f from $(pending_of "$s")"
+      mkdir -p "$(dirname "$out/$f")"; gunzip -c "$(pending_of "$s")" > "$out/$f"; echo "resuming $f from $(pending_of "$s")"
     fi
   done
 fi

@@ -159,7 +159,7 @@ check(proc.returncode == 0, f"--install: {proc.stderr}")
 reference = clone / "results" / "reference"
 check((reference / "sweep_scale.json").exists() and (reference / "micro_nns" / "micro_nns.txt").exists(),
       f"finished files not installed: {proc.stdout}")
-check((reference / "pending" / "icp_accuracy.partial.json").exists(), f"unfinished file not pending: {proc.stdout}")
+check((reference / "pending" / "icp_accuracy.partial.json.gz").exists(), f"unfinished file not pending: {proc.stdout}")
 check(not (reference / "icp_accuracy.json").exists(), "an unfinished file installed as finished")
 
 # --from-pending on another machine: the pending file is copied into the new folder and resumed.
