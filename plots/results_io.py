@@ -296,6 +296,7 @@ def load(paths, prefer=None):
     if prefer == "newest":
         docs.sort(key=lambda d: file_date(d[1]))  # stable: reading order among equal dates
     seen = {}
+    sweep_files = []  # the file of each cell of results.sweep
     for path, context, benchmarks in docs:
         results.files.append((path, context))
         for name, info in (context.get("adapters") or {}).items():
@@ -316,15 +317,38 @@ def load(paths, prefer=None):
                 seen.setdefault(f"{experiment_of(context)}: {run_name(rec)}", []).append(path)
             if kind == "sweep":
                 _read_sweep(results, rec, sizes)
+                sweep_files.append(path)
             elif kind == "build":
                 _read_build(results, rec)
             elif kind == "icp":
                 _read_icp(results, rec, experiment_of(context))
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
+    results.sweep = _one_set_size(results.sweep, sweep_files)
     results.sweep = _one_k(_last_wins(results.sweep,
                                       lambda c: (c.model, c.query, c.adapter, c.search, c.strategy, c.max_dist_m, c.k)))
     results.icp = _last_wins(results.icp, lambda r: (r.experiment, r.pair, r.adapter, r.bucket_size))
     return results
+
+
+def _one_set_size(cells, files):
+    """A combination swept at other set sizes in another file (quick's 15,000 points beside the grid's 60,000) is
+    not the same series: per (model, query), cells whose sizes differ from those of the last file read (the
+    newest with prefer) are left out, and said so."""
+    newest = {}
+    for cell, path in zip(cells, files):
+        newest[(cell.model, cell.query)] = (path, (cell.n_points, cell.n_queries))
+    kept, dropped = [], {}
+    for cell, path in zip(cells, files):
+        last_path, sizes = newest[(cell.model, cell.query)]
+        known = None not in sizes and None not in (cell.n_points, cell.n_queries)
+        if path != last_path and known and (cell.n_points, cell.n_queries) != sizes:
+            dropped.setdefault((path, cell.model, cell.query, last_path), 0)
+            dropped[(path, cell.model, cell.query, last_path)] += 1
+            continue
+        kept.append(cell)
+    for (path, model, query, last_path), n in dropped.items():
+        warn(f"{path}: {n} cells of {model} -> {query} left out: other set sizes than {last_path}'s")
+    return kept
 
 
 def _last_wins(items, key):

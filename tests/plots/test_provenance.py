@@ -70,6 +70,19 @@ class ProvenanceTest(unittest.TestCase):
         got = {c.seconds for c in results.sweep if c.adapter == "ours_kdtree" and c.search == "knn"}
         self.assertEqual(got, {2.0 * 0.15})
 
+    def test_a_combination_at_other_set_sizes_is_left_out(self):
+        def sized(records, n):
+            return [dict(r, n_points=n, n_queries=n) for r in records]
+        small = sized(fixtures.sweep_records(shapes=("hollow_sphere",), speed={"ours_kdtree": 0.1}), 15000)
+        small.append(dict(small[-1], name=small[-1]["name"] + "/only_here", max_dist=0.77))
+        old = fixtures.write(self.dir / "quick.json", "quick", small, date="2024-01-01T00:00:00")
+        new = fixtures.write(self.dir / "grid.json", "paper", sized(fixtures.sweep_records(shapes=("hollow_sphere",)),
+                             60000), date="2024-02-01T00:00:00")
+        results = results_io.load([new, old], prefer="newest")
+        self.assertTrue(results.sweep)
+        self.assertEqual({c.n_points for c in results.sweep}, {60000})
+        self.assertNotIn(0.77, {c.max_dist_m for c in results.sweep})
+
     def test_icp_experiment_name_is_read(self):
         f = fixtures.write(self.dir / "icp.json", "x", fixtures.icp_real_records())
         doc = f.read_text().replace('"experiment": "x"', '"nnb_experiment": "icp_real"')
