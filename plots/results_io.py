@@ -5,7 +5,7 @@ Tolerant by design: unknown fields are ignored, missing ones are reported on std
 import json
 import math
 import sys
-from collections import namedtuple
+from collections import Counter, namedtuple
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
@@ -337,15 +337,14 @@ def _one_set_size(cells, files):
     newest = {}
     for cell, path in zip(cells, files):
         newest[(cell.model, cell.query)] = (path, (cell.n_points, cell.n_queries))
-    kept, dropped = [], {}
+    kept, dropped = [], Counter()
     for cell, path in zip(cells, files):
         last_path, sizes = newest[(cell.model, cell.query)]
         known = None not in sizes and None not in (cell.n_points, cell.n_queries)
         if path != last_path and known and (cell.n_points, cell.n_queries) != sizes:
-            dropped.setdefault((path, cell.model, cell.query, last_path), 0)
             dropped[(path, cell.model, cell.query, last_path)] += 1
-            continue
-        kept.append(cell)
+        else:
+            kept.append(cell)
     for (path, model, query, last_path), n in dropped.items():
         warn(f"{path}: {n} cells of {model} -> {query} left out: other set sizes than {last_path}'s")
     return kept
