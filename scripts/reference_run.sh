@@ -11,6 +11,8 @@
 #   scripts/reference_run.sh --out DIR --from-pending ...   first copy this clone's pending/ files into DIR,
 #                                                      so that a new machine resumes them
 # --until stops the step in flight at that time (it resumes next time) and starts none after it.
+# ICP on the real pairs runs this clone's definition of it (which adapters it leaves out), even from an older
+# --source; the results file records the definition it ran.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 src=$here out="" until="" only="" build=1 list=0 install=0 from_pending=0
@@ -70,7 +72,8 @@ command_of() {
     icp_accuracy) cmd=("$bench/run_icp" --experiment icp_accuracy --out "$o") ;;
     real_pairs) cmd=("$bench/nns_query" --describe-real-pairs "$o") ;;
     icp_bucket) cmd=("$bench/run_icp" --experiment icp_bucket_coarse --out "$o") ;;
-    icp_real) cmd=("$bench/run_icp" --experiment icp_real --buckets-from "$out/icp_bucket.json" --out "$o") ;;
+    icp_real) cmd=("$bench/run_icp" --experiment "$here/bench/experiments/icp_real.json"
+                   --buckets-from "$out/icp_bucket.json" --out "$o") ;;
     paper_grid) cmd=("$bench/run_sweep" "${grid[@]}" --adapters
                      "$(adapters_but brute_force spatialindex_quadratic spatialindex_rstar)" --out "$o") ;;
     paper_grid_spatialindex)

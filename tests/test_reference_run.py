@@ -112,6 +112,8 @@ check("brute_force" not in grid and "spatialindex" not in grid, f"the grid's ada
 check("hollow_sphere:filled_cube" in grid and grid.count(":") == 16, f"the grid's 16 combinations: {grid}")
 check(any("--adapters spatialindex_quadratic,spatialindex_rstar" in c for c in ran), "no libspatialindex grid")
 check(any(f"--buckets-from {out}/icp_bucket.json" in c for c in ran), "ICP on the real pairs not at tuned buckets")
+icp_real = f"--experiment {SCRIPT.parent.parent}/bench/experiments/icp_real.json"
+check(any(icp_real in c for c in ran), f"ICP on the real pairs not from the script's clone: {ran}")
 check((out / "micro_nns" / "micro_nns.txt").read_text().count("# before: ") == 1, "micro_nns.txt lacks its load")
 log = (out / "log.txt").read_text()
 check(log.count(" start ") == len(STEPS) and "all steps done" in log and "load " in log, f"log: {log}")
