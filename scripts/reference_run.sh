@@ -7,7 +7,8 @@
 #   scripts/reference_run.sh --out DIR [--until HH:MM] [--steps a,b] [--source TREE] [--no-build]
 #   scripts/reference_run.sh --out DIR --list          the steps and their commands; runs nothing
 #   scripts/reference_run.sh --out DIR --install       copy DIR's files into this clone's results/reference
-#                                                      (finished ones in place, unfinished ones gzipped to pending/)
+#                                                      (finished ones in place, unfinished ones gzipped to pending/,
+#                                                      the log as reference_run_log.txt)
 #   scripts/reference_run.sh --out DIR --from-pending ...   first copy this clone's pending/ files into DIR,
 #                                                      so that a new machine resumes them
 # --until stops the step in flight at that time (it resumes next time) and starts none after it.
@@ -100,6 +101,7 @@ if [ $install = 1 ]; then
       echo "pending $f (unfinished; --from-pending resumes it)"
     fi
   done
+  if [ -f "$out/log.txt" ]; then cp "$out/log.txt" "$dest/reference_run_log.txt"; echo "installed the log"; fi
   exit 0
 fi
 

@@ -164,6 +164,7 @@ check((reference / "sweep_scale.json").exists() and (reference / "micro_nns" / "
       f"finished files not installed: {proc.stdout}")
 check((reference / "pending" / "icp_accuracy.partial.json.gz").exists(), f"unfinished file not pending: {proc.stdout}")
 check(not (reference / "icp_accuracy.json").exists(), "an unfinished file installed as finished")
+check((reference / "reference_run_log.txt").read_text() == (out3 / "log.txt").read_text(), "the log not installed")
 
 # --from-pending on another machine: the pending file is copied into the new folder and resumed.
 out4 = WORK / "out4"
