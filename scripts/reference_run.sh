@@ -9,6 +9,9 @@
 #   scripts/reference_run.sh --out DIR --install       copy DIR's files into this clone's results/reference
 #                                                      (finished ones in place, unfinished ones gzipped to pending/,
 #                                                      the log as reference_run_log.txt)
+#   scripts/reference_run.sh --out DIR --end-early STEP --reason TEXT
+#                                                      call STEP's file finished as it stands (the log says why);
+#                                                      for a step whose last settings would take days
 #   scripts/reference_run.sh --out DIR --from-pending ...   first copy this clone's pending/ files into DIR,
 #                                                      so that a new machine resumes them
 # --until stops the step in flight at that time (it resumes next time) and starts none after it.
@@ -16,7 +19,7 @@
 # --source; the results file records the definition it ran.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-src=$here out="" until="" only="" build=1 list=0 install=0 from_pending=0
+src=$here out="" until="" only="" build=1 list=0 install=0 from_pending=0 end_early="" reason=""
 die() { echo "reference_run: error: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   case $1 in
@@ -28,6 +31,8 @@ while [ $# -gt 0 ]; do
     --list) list=1 ;;
     --install) install=1 ;;
     --from-pending) from_pending=1 ;;
+    --end-early) end_early=${2:?}; shift ;;
+    --reason) reason=${2:?}; shift ;;
     *) die "unknown option '$1' (see the head of $0)" ;;
   esac
   shift
@@ -102,6 +107,18 @@ if [ $install = 1 ]; then
     fi
   done
   if [ -f "$out/log.txt" ]; then cp "$out/log.txt" "$dest/reference_run_log.txt"; echo "installed the log"; fi
+  exit 0
+fi
+
+if [ -n "$end_early" ]; then
+  [[ " ${steps[*]} " == *" $end_early "* ]] || die "unknown step '$end_early' (steps: ${steps[*]})"
+  [ -n "$reason" ] || die "--end-early needs --reason: the log says why the step stopped short"
+  [ -f "$out/$(output_of "$end_early")" ] || die "$end_early has no file in $out to keep"
+  [ ! -f "$out/.done/$end_early" ] || die "$end_early is already done"
+  mkdir -p "$out/.done"
+  echo "$(date -Is) ended $end_early early, its file as it stands: $reason | load $(cut -d' ' -f1-3 /proc/loadavg)" \
+    | tee -a "$out/log.txt"
+  touch "$out/.done/$end_early"
   exit 0
 fi
 

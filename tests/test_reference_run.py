@@ -144,6 +144,17 @@ run(tree, out2)
 resumed = [c for c in calls() if "icp_bucket_coarse" in c]
 check(len(resumed) == 2 and "--resume" in resumed[1] and "--resume" not in resumed[0], f"not resumed: {resumed}")
 
+# --end-early keeps a stopped step's file as finished, with its reason in the log; it needs a reason and a file.
+out_early = WORK / "out_early"
+run(tree, out_early, "--steps", "icp_bucket", "--until", "now + 5 seconds", env_extra={"SLOW": "icp_bucket_coarse"})
+run(tree, out_early, "--end-early", "icp_bucket", expect=2)
+run(tree, out_early, "--end-early", "scale", "--reason", "no file", expect=2)
+run(tree, out_early, "--end-early", "icp_bucket", "--reason", "the last settings take days")
+check((out_early / ".done" / "icp_bucket").exists(), "--end-early did not mark the step done")
+check("ended icp_bucket early, its file as it stands: the last settings take days" in (out_early / "log.txt").read_text(),
+      "--end-early's reason not in the log")
+run(tree, out_early, "--end-early", "icp_bucket", "--reason", "again", expect=2)
+
 # A failed step stops the run (exit 1), leaving the later steps to do.
 out3 = WORK / "out3"
 (BENCH / "run_icp").write_text("#!/bin/sh\nexit 3\n")
