@@ -63,7 +63,7 @@ def fig2(results, out_dir):
 
 
 def real_times(results):
-    """{pair: {adapter: (median icp seconds, all converged or None, bucket size or None)}}."""
+    """{pair: {adapter: (median icp seconds, all converged or None, (bucket size, its source) or None)}}."""
     runs = {}
     for run in results.icp:
         if not is_bucket_run(run) and not is_accuracy_run(run):
@@ -73,7 +73,7 @@ def real_times(results):
         out[pair] = {}
         for key, rs in by_key.items():
             flags = [r.converged for r in rs if r.converged is not None]
-            buckets = {r.bucket_size for r in rs}
+            buckets = {(r.bucket_size, r.bucket_source) for r in rs}
             out[pair][key] = (median(r.icp_seconds for r in rs), all(flags) if flags else None,
                               buckets.pop() if len(buckets) == 1 else None)
     return out
@@ -96,10 +96,15 @@ def bar_text(seconds, converged, reference):
     return text + (" (not converged)" if converged is False else "")
 
 
-def bucket_text(bucket_size):
+def bucket_text(bucket):
     """The bucket size a bar ran at: the reader sees whether each library ran at its best (see run_icp
     --buckets-from) or its default."""
-    return f" (bucket {bucket_size:g})" if bucket_size is not None else ""
+    size, source = bucket or (None, None)
+    if source == "best":
+        return f" (best bucket {size:g})"
+    if source == "default":
+        return " (default)" if size is None else f" (default bucket {size:g})"
+    return f" (bucket {size:g})" if size is not None else ""
 
 
 def draw_pair(ax, results, pair, times):

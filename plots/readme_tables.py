@@ -32,7 +32,8 @@ def icp_lines(results, shown=3):
     lines = ["| pair | fastest | second | third | nanoflann | fastest vs nanoflann |", "|---|---|---|---|---|---|"]
     for pair, times in sorted(fig_icp.real_times(results).items()):
         ranked, _ = fig_icp.ranked_pair(results, times)
-        cells = [f"{k} {times[k][0]:.2f} s" + ("" if times[k][1] is not False else " (not converged)")
+        cells = [f"{k} {times[k][0]:.2f} s" + fig_icp.bucket_text(times[k][2])
+                 + ("" if times[k][1] is not False else " (not converged)")
                  for k in ranked[:shown]]
         cells += ["-"] * (shown - len(cells))
         ref = fig_icp.nanoflann_seconds(times)

@@ -21,10 +21,11 @@ Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points fi
 # Google Benchmark micro-benchmarks (bench/micro_nns): the fastest repetition's CPU time of one call.
 MicroCell = namedtuple("MicroCell", "pair adapter variant max_dist_m cpu_seconds n_queries")
 # ref_*: the final pose's error against the pair's reference (None without one); settings: ICP_SETTINGS and
-# initial_pose as the record gives them.
+# initial_pose as the record gives them; bucket_source: "best" (from run_icp --buckets-from's file), "default"
+# (the adapter is not in that file) or None (no file named).
 IcpRun = namedtuple("IcpRun", "experiment pair adapter bucket_size icp_seconds build_seconds nns_seconds "
-                              "iterations converged ref_translation_error_m ref_rotation_error_deg settings",
-                    defaults=(None, None, None))
+                              "iterations converged ref_translation_error_m ref_rotation_error_deg settings "
+                              "bucket_source", defaults=(None, None, None, None))
 ICP_SETTINGS = ("max_dist_start_m", "max_dist_factor", "max_dist_floor_m", "max_iterations", "query_stride",
                 "initial_pose")
 
@@ -140,7 +141,15 @@ def _read_build(results, rec):
     results._note_adapter(rec)
 
 
-def _read_icp(results, rec, experiment):
+def bucket_source(context, adapter):
+    """Whether run_icp ran the adapter at its best bucket from the file its config names, or at its default."""
+    config = context.get("config") if isinstance(context.get("config"), dict) else {}
+    if not config.get("buckets_from"):
+        return None
+    return "best" if adapter in (config.get("best_buckets") or {}) else "default"
+
+
+def _read_icp(results, rec, experiment, context):
     pair, adapter = rec.get("pair"), rec.get("adapter")
     icp_seconds = _number(rec.get("icp_seconds"))
     if not (pair and adapter) or icp_seconds is None or _skip_reason(rec):
@@ -152,7 +161,7 @@ def _read_icp(results, rec, experiment):
                               _number(rec.get("nns_seconds")), _number(rec.get("iterations")),
                               converged if isinstance(converged, bool) else None,
                               _number(rec.get("ref_translation_error_m")), _number(rec.get("ref_rotation_error_deg")),
-                              {k: rec[k] for k in ICP_SETTINGS if k in rec}))
+                              {k: rec[k] for k in ICP_SETTINGS if k in rec}, bucket_source(context, adapter)))
     results._note_adapter(rec)
 
 
@@ -321,7 +330,7 @@ def load(paths, prefer=None):
             elif kind == "build":
                 _read_build(results, rec)
             elif kind == "icp":
-                _read_icp(results, rec, experiment_of(context))
+                _read_icp(results, rec, experiment_of(context), context)
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
     results.sweep = _one_set_size(results.sweep, sweep_files)
     results.sweep = _one_k(_last_wins(results.sweep,

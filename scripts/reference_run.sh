@@ -42,11 +42,17 @@ mkdir -p "$out" && out=$(cd "$out" && pwd)
 case $out/ in "$src"/*) die "--out $out lies inside the source tree $src: the tree would not stay clean" ;; esac
 bench=${NNB_BENCH_DIR:-build/release/bench}
 
-steps=(micro_nns quick scale icp_accuracy real_pairs icp_bucket icp_real paper_grid paper_grid_spatialindex real)
+steps=(micro_nns registry checks quick scale icp_accuracy real_pairs icp_hints icp_no_hints icp_bucket icp_real paper_grid
+       paper_grid_spatialindex real)
+# The approximate adapter counted against brute force (results/reference/checks), model:query.
+check_pairs=(hollow_sphere:hollow_cube hollow_cube:hollow_sphere filled_cube:hollow_sphere)
 # The output of each step, as results/reference names it.
 output_of() {
   case $1 in
     micro_nns) echo micro_nns/micro_nns.json ;;
+    registry) echo registry/adapters.json ;;
+    checks) echo "checks/pcl_octree_approx_${check_pairs[-1]/:/_}.json" ;;  # the last of its files
+    icp_hints | icp_no_hints) echo "hints/$1.json" ;;
     quick | scale | paper_grid | paper_grid_spatialindex | real) echo "sweep_$1.json" ;;
     *) echo "$1.json" ;;
   esac
@@ -74,6 +80,10 @@ command_of() {
   local grid=(--experiment paper --datasets "$(grid_datasets)" --strategies default --repetitions 3 --budget 0.5)
   case $1 in
     micro_nns) cmd=("$bench/micro_nns" --benchmark_repetitions=3 "--benchmark_out=$o" --benchmark_out_format=json) ;;
+    registry) cmd=("$bench/nns_query" --list --json) ;;
+    checks) cmd=("$bench/nns_query" --adapter pcl_octree_approx --search knn --k 1 --points 100000 --check
+                 --out -) ;;  # run_checks adds each pair's --model, --query and --stats, and drops the answers
+    icp_hints | icp_no_hints) cmd=("$bench/run_icp" --experiment "$1" --out "$o") ;;
     quick | scale) cmd=("$bench/run_sweep" --experiment "$1" --out "$o") ;;
     icp_accuracy) cmd=("$bench/run_icp" --experiment icp_accuracy --out "$o") ;;
     real_pairs) cmd=("$bench/nns_query" --describe-real-pairs "$o") ;;
@@ -86,7 +96,7 @@ command_of() {
       cmd=("$bench/run_sweep" "${grid[@]}" --adapters "spatialindex_quadratic,spatialindex_rstar" --out "$o") ;;
     real) cmd=("$bench/run_sweep" --experiment real --strategies default --repetitions 3 --budget 1 --out "$o") ;;
   esac
-  if [ -f "$o" ] && [[ $1 != micro_nns && $1 != real_pairs ]]; then cmd+=(--resume); fi
+  if [ -f "$o" ] && [[ ! " micro_nns registry checks real_pairs " =~ " $1 " ]]; then cmd+=(--resume); fi
 }
 
 selected=("${steps[@]}")
@@ -100,6 +110,7 @@ if [ $install = 1 ]; then
     if [ -f "$out/.done/$s" ]; then
       mkdir -p "$(dirname "$dest/$f")"; cp "$out/$f" "$dest/$f"; rm -f "$(pending_of "$s")"
       [ "$s" = micro_nns ] && cp "$out/micro_nns/micro_nns.txt" "$dest/micro_nns/"
+      [ "$s" = checks ] && cp "$out"/checks/*.json "$dest/checks/"
       echo "installed $f"
     else
       mkdir -p "$dest/pending"; gzip -9c "$out/$f" > "$(pending_of "$s")"
@@ -173,6 +184,20 @@ run_micro_nns() {  # its JSON lacks the load and the tree state: a header and fo
   } > "$out/micro_nns/micro_nns.txt"
 }
 
+run_registry() {  # written whole, then moved: a stopped step leaves no half file
+  mkdir -p "$out/registry"
+  "${cmd[@]}" > "$out/registry/adapters.json.tmp" && mv "$out/registry/adapters.json.tmp" "$out/registry/adapters.json"
+}
+
+run_checks() {
+  local pair
+  mkdir -p "$out/checks"
+  for pair in "${check_pairs[@]}"; do
+    "${cmd[@]}" --model "${pair%%:*}" --query "${pair##*:}" \
+      --stats "$out/checks/pcl_octree_approx_${pair/:/_}.json" > /dev/null || return
+  done
+}
+
 mkdir -p "$out/.done"
 for s in "${selected[@]}"; do
   [ -f "$out/.done/$s" ] && continue
@@ -183,10 +208,13 @@ for s in "${selected[@]}"; do
     if [ "$left" -le 0 ]; then log "stop before $s (--until $until)"; exit 0; fi
   fi
   command_of "$s"
+  mkdir -p "$(dirname "$out/$(output_of "$s")")"
   log "start $s at $(git rev-parse --short HEAD), tree clean: ${cmd[*]}"
   rc=0
   if [ "$s" = micro_nns ]; then
     run_micro_nns || rc=$?
+  elif [ "$s" = registry ] || [ "$s" = checks ]; then
+    "run_$s" 2> "$out/$s.stderr" || rc=$?
   elif [ -n "$left" ]; then
     timeout --signal=TERM "$left" "${cmd[@]}" > "$out/$s.stdout" 2> "$out/$s.stderr" || rc=$?
   else

@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 
 SCRIPT, WORK = Path(sys.argv[1]).resolve(), Path(sys.argv[2]).resolve()
-STEPS = ["micro_nns", "quick", "scale", "icp_accuracy", "real_pairs", "icp_bucket", "icp_real", "paper_grid",
-         "paper_grid_spatialindex", "real"]
+STEPS = ["micro_nns", "registry", "checks", "quick", "scale", "icp_accuracy", "real_pairs", "icp_hints", "icp_no_hints",
+         "icp_bucket", "icp_real", "paper_grid", "paper_grid_spatialindex", "real"]
 
 STAND_IN = r'''#!/usr/bin/env python3
 import os, sys, time
@@ -28,11 +28,12 @@ if args[:1] == ["--version"]:
     print(name + " 0.1 (stand-in)")
     sys.exit(0)
 out = [a.split("=", 1)[1] for a in args if a.startswith("--benchmark_out=")]
-out += [args[i + 1] for i, a in enumerate(args[:-1]) if a in ("--out", "--describe-real-pairs")]
+out += [args[i + 1] for i, a in enumerate(args[:-1]) if a in ("--out", "--describe-real-pairs", "--stats") and args[i + 1] != "-"]
 if os.environ.get("SLOW") and "--experiment" in args and args[args.index("--experiment") + 1] == os.environ["SLOW"]:
     open(out[0], "w").write("{}")  # a partial file, as a killed run leaves one
     time.sleep(60)
-open(out[0], "w").write('{"benchmarks": []}')
+for path in out:
+    open(path, "w").write('{"benchmarks": []}')
 '''
 
 
@@ -104,7 +105,13 @@ check(not calls(), f"a refused run called programs: {calls()}")
 out = WORK / "out"
 run(tree, out)
 ran = [c for c in calls() if "--list" not in c and "--version" not in c]
-check(len(ran) == len(STEPS), f"{len(ran)} programs ran for {len(STEPS)} steps: {ran}")
+checks = [c for c in ran if "--check" in c]
+check(len(checks) == 3 and len(ran) == len(STEPS) - 1 + 2, f"{len(ran)} programs ran for {len(STEPS)} steps: {ran}")
+check("nns_query --list --json" in calls(), f"the registry not written: {calls()}")
+check((out / "registry" / "adapters.json").read_text().startswith("brute_force"), "the registry's file")
+check(len(list((out / "checks").glob("pcl_octree_approx_*.json"))) == 3, "not three checks of the approximate octree")
+check(any("--experiment icp_no_hints --out " + str(out / "hints" / "icp_no_hints.json") in c for c in ran),
+      f"no ICP run without hints: {ran}")
 for step in STEPS:
     check((out / ".done" / step).exists(), f"{step} not marked done")
 grid = next(c for c in ran if "--datasets" in c and "ours_kdtree" in c)
@@ -171,6 +178,8 @@ proc = subprocess.run([str(clone / "scripts" / SCRIPT.name), "--out", str(out3),
                       capture_output=True, text=True)
 check(proc.returncode == 0, f"--install: {proc.stderr}")
 reference = clone / "results" / "reference"
+check(len(list((reference / "checks").glob("*.json"))) == 3 and (reference / "registry" / "adapters.json").exists(),
+      f"the registry and the checks not installed: {proc.stdout}")
 check((reference / "sweep_scale.json").exists() and (reference / "micro_nns" / "micro_nns.txt").exists(),
       f"finished files not installed: {proc.stdout}")
 check((reference / "pending" / "icp_accuracy.partial.json.gz").exists(), f"unfinished file not pending: {proc.stdout}")

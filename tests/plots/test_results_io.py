@@ -1,8 +1,10 @@
 """Reading results: units honoured, median preferred, skipped cells kept as skipped, bad records ignored."""
+import json
 import tempfile
 import unittest
 from pathlib import Path
 
+import fig_icp
 import fixtures
 import results_io
 
@@ -27,6 +29,24 @@ class ResultsIoTest(unittest.TestCase):
                        cell("sweep/a/b/x/knn", real_time=3.0, time_unit="s")])
         got = {c.max_dist_m: c.seconds for c in r.sweep}
         self.assertEqual(got, {0.1: 0.25, 0.2: 0.5, None: 3.0})
+
+    def test_icp_bucket_source(self):
+        """An ICP file run at the best buckets of another file says, per adapter, best or default."""
+        records = [{"name": f"icp/sick/{a}/bucket:{b}", "pair": "sick", "adapter": a, "bucket_size": b,
+                    "icp_seconds": 1.0} for a, b in (("tuned", 64), ("untuned", 100))]
+        with tempfile.TemporaryDirectory() as tmp:
+            path = fixtures.write(Path(tmp) / "icp.json", "icp_real", records)
+            doc = json.loads(path.read_text())
+            doc["context"]["config"] = {"buckets_from": "icp_bucket.json", "best_buckets": {"tuned": 64}}
+            path.write_text(json.dumps(doc))
+            tuned_file = results_io.load([path])
+            plain_file = results_io.load([fixtures.write(Path(tmp) / "plain.json", "icp_real", records)])
+        self.assertEqual({r.adapter: r.bucket_source for r in tuned_file.icp}, {"tuned": "best", "untuned": "default"})
+        self.assertEqual({r.bucket_source for r in plain_file.icp}, {None})
+        times = fig_icp.real_times(tuned_file)["sick"]
+        self.assertEqual(fig_icp.bucket_text(times["tuned"][2]), " (best bucket 64)")
+        self.assertEqual(fig_icp.bucket_text(times["untuned"][2]), " (default bucket 100)")
+        self.assertEqual(fig_icp.bucket_text(fig_icp.real_times(plain_file)["sick"]["tuned"][2]), " (bucket 64)")
 
     def test_skipped_and_incomplete_records(self):
         r = self.load([cell("sweep/a/b/x/radius/max_dist:0.90", max_dist=0.9, skipped="over budget",
