@@ -46,9 +46,25 @@ def wall_seconds(context):
     return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0 else None
 
 
+def _when(text):
+    try:
+        when = datetime.datetime.fromisoformat(str(text))
+    except ValueError:
+        return None
+    return when if when.tzinfo else when.replace(tzinfo=datetime.timezone.utc)
+
+
+def resumed_starts(context):
+    """The start of each sitting after the first of a resumed run (context `resumed`), oldest first."""
+    resumed = context.get("resumed")
+    return sorted(w for w in map(_when, resumed if isinstance(resumed, list) else []) if w is not None)
+
+
 def interval(context):
-    """(start, end) of the run when both its date and wall time are recorded, else None."""
-    start, wall = start_time(context), wall_seconds(context)
+    """(start, end) of the run's last sitting when its start and wall time are recorded, else None. The wall
+    time is the last sitting's: a resumed run's earlier sittings have no recorded end, so they are not checked."""
+    starts = [start_time(context)] + resumed_starts(context)
+    start, wall = starts[-1], wall_seconds(context)
     return None if start is None or wall is None else (start, start + datetime.timedelta(seconds=wall))
 
 
@@ -64,7 +80,9 @@ def describe(path, context):
     return (f"`{results_io.display_path(path)}`: experiment {results_io.experiment_of(context) or '?'}; "
             f"commit {commit}{dirty}; command `{command}`; load {_load_text(context.get('load_avg'))} before, "
             f"{after} after; started {context.get('date', '?')}, "
-            f"wall time {'not recorded' if wall is None else f'{wall:.0f} s'}")
+            f"wall time {'not recorded' if wall is None else f'{wall:.0f} s'}"
+            + (f" (its last of {len(resumed) + 1} sittings; the earlier ones' ends are not recorded, so only the last "
+               "is checked for overlap)" if (resumed := resumed_starts(context)) else ""))
 
 
 def overlaps(files):

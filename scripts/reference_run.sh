@@ -4,7 +4,7 @@
 # Resumable across sessions: a finished step is not run again, a stopped one resumes its file. Nothing else
 # may run meanwhile; the log records each step's command, commit and load before and after.
 #
-#   scripts/reference_run.sh --out DIR [--until HH:MM] [--steps a,b] [--source TREE] [--no-build]
+#   scripts/reference_run.sh --out DIR [--until TIME] [--steps a,b] [--source TREE] [--no-build]
 #   scripts/reference_run.sh --out DIR --list          the steps and their commands; runs nothing
 #   scripts/reference_run.sh --out DIR --install       copy DIR's files into this clone's results/reference
 #                                                      (finished ones in place, unfinished ones gzipped to pending/,
@@ -14,7 +14,8 @@
 #                                                      for a step whose last settings would take days
 #   scripts/reference_run.sh --out DIR --from-pending ...   first copy this clone's pending/ files into DIR,
 #                                                      so that a new machine resumes them
-# --until stops the step in flight at that time (it resumes next time) and starts none after it.
+# --until TIME (what date -d reads: 03:05 means today's, so past midnight give the date) stops the step in
+# flight then (it resumes next time) and starts none after it.
 # ICP on the real pairs runs this clone's definition of it (which adapters it leaves out), even from an older
 # --source; the results file records the definition it ran.
 set -euo pipefail

@@ -1,4 +1,5 @@
 """Inputs the plots must not trust silently: dirty trees, overlapping runs, duplicated records; partial verdicts."""
+import json
 import subprocess
 import sys
 import tempfile
@@ -55,6 +56,25 @@ class ProvenanceTest(unittest.TestCase):
         self.assertEqual(proc.returncode, 0, proc.stderr)
         self.assertIn("runs overlapped in time", self.out.read_text())
         self.assertIn("wall time 3600 s", self.out.read_text())
+
+    def test_a_resumed_run_is_checked_by_its_last_sitting(self):
+        """The wall time of a resumed run is its last sitting's: the interval starts at that sitting, and the
+        provenance line says the earlier sittings went unchecked."""
+        a = fixtures.write(self.dir / "a.json", "paper", fixtures.build_records(shapes=("filled_cube",)),
+                           date="2024-01-01T09:00:00+00:00", wall_seconds=600)
+        doc = json.loads(a.read_text())
+        doc["context"]["resumed"] = ["2024-01-01T12:00:00+00:00"]
+        a.write_text(json.dumps(doc))
+        between = fixtures.write(self.dir / "b.json", "paper", fixtures.build_records(shapes=("hollow_cube",)),
+                                 date="2024-01-01T09:05:00+00:00", wall_seconds=60)
+        during = fixtures.write(self.dir / "c.json", "paper", fixtures.build_records(shapes=("filled_sphere",)),
+                                date="2024-01-01T12:05:00+00:00", wall_seconds=60)
+        proc = run_findings(a, between, "--out", self.out)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertIn("its last of 2 sittings", self.out.read_text())
+        proc = run_findings(a, during, "--out", self.out)
+        self.assertEqual(proc.returncode, 2)
+        self.assertIn("overlapped", proc.stderr)
 
     def test_duplicates_need_prefer_newest_and_the_newest_wins(self):
         old = fixtures.write(self.dir / "z_old.json", "paper", fixtures.sweep_records(shapes=QUICK_SHAPES),

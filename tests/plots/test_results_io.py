@@ -4,8 +4,8 @@ import tempfile
 import unittest
 from pathlib import Path
 
-import fig_icp
 import fixtures
+import fig_icp
 import results_io
 
 
