@@ -234,6 +234,15 @@ def run_name(rec):
     return str(rec.get("run_name") or rec.get("name", ""))
 
 
+def sized_run_name(rec, sizes):
+    """The cell with the set sizes it ran at: the same name at other sizes (quick's 15,000 points beside the grid's
+    60,000) is another measurement, not a duplicate; _one_set_size keeps one size per combination."""
+    n_points = _number(rec.get("n_points")) or sizes.get((rec.get("model"), "model"))
+    n_queries = _number(rec.get("n_queries")) or sizes.get((rec.get("query"), "query"))
+    parts = [f"{n:g} {what}" for n, what in ((n_points, "points"), (n_queries, "queries")) if n]
+    return run_name(rec) + (f" ({', '.join(parts)})" if parts else "")
+
+
 def _median(values):
     values = sorted(values)
     mid = len(values) // 2
@@ -286,9 +295,9 @@ def file_date(context):
 def load(paths, prefer=None):
     """Reads every results file; a file that cannot be read is reported and left out.
 
-    A record name found in several files is noted in Results.duplicates; the copy used is the newest file's
-    (context date, then reading order) when prefer == "newest", else the last one read. Callers that must not
-    guess refuse duplicates unless asked to prefer the newest (see provenance.py)."""
+    A record (name and set sizes) found in several files is noted in Results.duplicates; the copy used is the
+    newest file's (context date, then reading order) when prefer == "newest", else the last one read. Callers that
+    must not guess refuse duplicates unless asked to prefer the newest (see provenance.py)."""
     results = Results()
     docs = []
     for path in paths:
@@ -321,7 +330,7 @@ def load(paths, prefer=None):
         for rec in one_record_per_cell(r for r in benchmarks if isinstance(r, dict) and _kind(r) != "micro"):
             kind = _kind(rec)
             if kind in ("sweep", "build"):
-                seen.setdefault(run_name(rec), []).append(path)
+                seen.setdefault(sized_run_name(rec, sizes), []).append(path)
             elif kind == "icp":  # each ICP experiment is drawn on its own: the same cell in two is no conflict
                 seen.setdefault(f"{experiment_of(context)}: {run_name(rec)}", []).append(path)
             if kind == "sweep":

@@ -102,6 +102,9 @@ class ProvenanceTest(unittest.TestCase):
         self.assertTrue(results.sweep)
         self.assertEqual({c.n_points for c in results.sweep}, {60000})
         self.assertNotIn(0.77, {c.max_dist_m for c in results.sweep})
+        self.assertEqual(results.duplicates, {}, "the same names at other set sizes are other cells")
+        self.assertEqual(run_findings(old, new, "--out", self.out).returncode, 0)
+        self.assertNotIn("NOT A CLEAN RUN", self.out.read_text())
 
     def test_icp_experiment_name_is_read(self):
         f = fixtures.write(self.dir / "icp.json", "x", fixtures.icp_real_records())

@@ -53,6 +53,22 @@ class ReadmeTablesTest(unittest.TestCase):
         self.assertEqual(lines[3], f"| `{self.dir / 'new.json'}` | quick | `run_sweep --experiment quick` | "
                                    "0123456 (dirty) | 0.10 -> 0.20 | 2024-01-02T00:00:00 | 5 min |")
 
+    def test_real_sweep_ranks_exact_timed_ranged_cells_at_the_distance(self):
+        records = [dict(r, n_queries=5000) for r in fixtures.sweep_records(shapes=("kinect",))]
+        for r in records:
+            if r["adapter"] == "ours_octree" and r.get("max_dist") == 0.1 and r["search"] == "ranged":
+                r["agrees"] = False
+            if r["adapter"] == "ann_kdtree" and r["search"] == "ranged":
+                r.update(skipped="over the budget", real_time=0, cpu_time=0)
+        records += fixtures.sweep_records(shapes=("city-60k",))
+        context = dict(fixtures.context("real"), datasets=[scan("kinect", "model", 5000), scan("kinect", "query", 5000),
+                                                           {"spec": "city-60k", "role": "model", "kind": "simulated_pair"}])
+        results = results_io.load([self.write("real.json", context, records)])
+        lines = readme_tables.real_sweep_lines(results, max_dist_m=0.1)
+        self.assertEqual(len(lines), 3, "one row per real pair, none for simulated scans")
+        self.assertEqual(lines[2], "| kinect | 5,000 | ours_octree 27 ms (DISAGREES) | ours_kdtree 30.3 ms | "
+                                   "nanoflann_kdtree 33.7 ms | nanoflann_kdtree 33.7 ms | 1.25x | 6 of 8 |")
+
     def test_real_pairs_row_per_pair_from_the_datasets_context(self):
         context = {"date": "2024-01-01T00:00:00", "datasets": [
             scan("kinect", "model", 1000, n_non_finite=20), scan("kinect", "query", 990, n_non_finite=30,
