@@ -138,8 +138,8 @@ def speedup_figures(results):
     for title, ratios in fig_speedup.speedup_panels(results):
         traces = [trace(*zip(*sorted(points)), a, a, results, "ranged", results.adapter_info(a).get("ranged"))
                   for a, points in sorted(ratios.items())]
-        out.append(figure(traces, f"Speed-up over nanoflann: {title}", "maximal distance (m)",
-                          "nanoflann time / adapter time (x)"))
+        out.append(figure(traces, f"Speed-up over the faster nanoflann: {title}", "maximal distance (m)",
+                          "faster nanoflann time / adapter time (x)"))
     return out
 
 
@@ -163,7 +163,7 @@ def all_figures(results):
     if fig_icp.bucket_curves(results):
         sections.append(("Figure 2: ICP against bucket size", [bucket_figure(results)]))
     for title, figs in (("Figure 8: scale", scale_figures(results)),
-                        ("Figure 9: speed-up over nanoflann", speedup_figures(results))):
+                        ("Figure 9: speed-up over the faster nanoflann", speedup_figures(results))):
         if figs:
             sections.append((title, figs))
     return sections

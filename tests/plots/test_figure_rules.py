@@ -8,6 +8,7 @@ from pathlib import Path
 import fixtures  # first: puts plots/ on the path
 import fig_build  # noqa: E402
 import fig_icp  # noqa: E402
+import fig_speedup  # noqa: E402
 import fig_sweep  # noqa: E402
 import readme_tables  # noqa: E402
 import results_io  # noqa: E402
@@ -84,6 +85,20 @@ class FigureRulesTest(unittest.TestCase):
         r.files = [("old.json", {"date": "2024-01-01"}), ("new.json", {"date": "2025-01-01"})]
         r.builds = [results_io.Build("m", "a", 5.0, None, 10, 1), results_io.Build("m", "a", 1.0, None, 10, 0)]
         self.assertEqual(fig_build.build_table(r), {("m", "a"): 5.0})
+
+    def test_speed_ups_are_over_the_faster_nanoflann_at_each_distance(self):
+        adapters = {**fixtures.ADAPTERS, "nanoflann_latest": ("nanoflann", "k-d tree", {"ranged": "native"})}
+        records = fixtures.sweep_records(shapes=("hollow_sphere",), adapters=adapters,
+                                         speed={"nanoflann_latest": 1.0},
+                                         kind_factor={("nanoflann_latest", "ranged"): 0.5})
+        records = [r for r in records if not (r["adapter"] == "nanoflann_latest" and r.get("max_dist") == 0.5)]
+        with tempfile.TemporaryDirectory() as tmp:
+            results = results_io.load([fixtures.write(Path(tmp) / "s.json", "paper", records)])
+        ratios = dict(fig_speedup.sweep_ratios(results, "hollow_sphere", "hollow_sphere")["ours_kdtree"])
+        self.assertAlmostEqual(ratios[0.4], 0.5 / 0.9, msg="the newest nanoflann, twice as fast, is the baseline")
+        self.assertAlmostEqual(ratios[0.5], 1.0 / 0.9, msg="where it did not run, Debian's is")
+        self.assertEqual(fig_icp.faster_nanoflann({"nanoflann_kdtree": (2.0,), "nanoflann_latest": (1.5,)}),
+                         "nanoflann_latest")
 
 
 if __name__ == "__main__":
