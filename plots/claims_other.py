@@ -1,6 +1,7 @@
 """Claims 4, 6 and 8: decided on construction records and ICP runs."""
 from fig_build import build_table
 from fig_icp import bucket_curves
+from results_io import latest_builds
 from verdict import FAILS, HOLDS, UNTESTED, Verdict, basis
 
 REFERENCE = "brute_force"
@@ -54,7 +55,7 @@ def claim6(results, lo=5, hi=20):
 def claim8(results, ours="ours_kdtree", ann="ann_kdtree"):
     rule = f"per model cloud: index_bytes({ann}) / index_bytes({ours}) >= 5. HOLDS if so for every model cloud."
     title = "The compact k-d tree uses at least 5x less memory than ANN"
-    size = {(b.model, b.adapter): b.index_bytes for b in results.builds if b.index_bytes}
+    size = {key: b.index_bytes for key, b in latest_builds(results).items() if b.index_bytes}
     numbers, ok = [], True
     for model in sorted({m for m, _ in size}):
         if (model, ours) in size and (model, ann) in size:

@@ -10,9 +10,22 @@ plt = style.plt
 COLUMNS = 4
 
 
+def drawn_builds(results):
+    """{(model, adapter): Build}, each from the newest run that built it, at one set size per model: the newest
+    run's (quick's 15,000-point builds of adapters the grid left out are not drawn beside its 60,000)."""
+    latest = latest_builds(results)
+    dates = [str(ctx.get("date", "")) for _, ctx in results.files]
+    newest = {}
+    for (model, _), b in latest.items():
+        rank = (dates[b.file] if b.file is not None else "", b.file or 0)
+        if model not in newest or rank >= newest[model][0]:
+            newest[model] = (rank, b.n_points)
+    return {k: b for k, b in latest.items() if None in (b.n_points, newest[k[0]][1]) or b.n_points == newest[k[0]][1]}
+
+
 def build_table(results):
-    """{(model, adapter): build seconds}, each from the newest run that built it (runs are never mixed)."""
-    return {k: b.build_seconds for k, b in latest_builds(results).items()}
+    """{(model, adapter): build seconds} of the builds drawn (drawn_builds: runs are never mixed)."""
+    return {k: b.build_seconds for k, b in drawn_builds(results).items()}
 
 
 def model_order(results, models):
@@ -22,8 +35,9 @@ def model_order(results, models):
 
 
 def model_title(results, model):
-    sizes = [b.n_points for b in results.builds if b.model == model and b.n_points]
-    return model.replace("_", " ") + (f" ({sizes[0]:,.0f} points)" if sizes else "")
+    """The model's name and size, the size of the builds drawn (the newest run's, as build_table takes them)."""
+    sizes = sorted({b.n_points for (m, _), b in drawn_builds(results).items() if m == model and b.n_points})
+    return model.replace("_", " ") + (f" ({' / '.join(f'{n:,.0f}' for n in sizes)} points)" if sizes else "")
 
 
 def draw_model(ax, results, model, table, adapters):

@@ -5,7 +5,9 @@ average before and after, date and wall time. Inputs from a dirty tree (or with 
 tree cannot be shown), runs that overlapped in time on the same host, and records found in more than one file
 are refused unless the caller allows them; an allowed problem is kept in `marks` so the output can say so."""
 import datetime
+import re
 import sys
+from pathlib import Path
 
 import results_io
 
@@ -62,10 +64,75 @@ def resumed_starts(context):
 
 def interval(context):
     """(start, end) of the run's last sitting when its start and wall time are recorded, else None. The wall
-    time is the last sitting's: a resumed run's earlier sittings have no recorded end, so they are not checked."""
+    time is the last sitting's: a resumed run's earlier sittings have no recorded end (see run_log_sittings)."""
     starts = [start_time(context)] + resumed_starts(context)
     start, wall = starts[-1], wall_seconds(context)
     return None if start is None or wall is None else (start, start + datetime.timedelta(seconds=wall))
+
+
+RUN_LOG = "reference_run_log.txt"
+_OUTPUT = re.compile(r"--(?:out|benchmark_out|describe-real-pairs)'?[ =]'?([^' ]+)")
+_LOG_LINE = re.compile(r"^(\S+) (start|end|killed) (\S+?):?(?: (.*?))?(?: \| load.*)?$")
+
+
+def output_path(command):
+    """The file a program's command line writes (--out, --benchmark_out, --describe-real-pairs), or None."""
+    match = _OUTPUT.search(" ".join(map(str, command)) if isinstance(command, list) else str(command or ""))
+    return match.group(1) if match and match.group(1) != "-" else None
+
+
+def run_log_sittings(log_text):
+    """{output path: [(start, end)]} from a reference run's log (scripts/reference_run.sh): every sitting of
+    every step, each start paired with its step's next end (or the line saying it was killed)."""
+    out, open_steps = {}, {}
+    for line in log_text.splitlines():
+        match = _LOG_LINE.match(line)
+        when = _when(match.group(1)) if match else None
+        if when is None:
+            continue
+        kind, step, rest = match.group(2), match.group(3), match.group(4) or ""
+        if kind == "start" and output_path(rest):
+            open_steps[step] = (output_path(rest), when)
+        elif kind in ("end", "killed") and step in open_steps:
+            path, start = open_steps.pop(step)
+            out.setdefault(path, []).append((start, when))
+    return out
+
+
+def find_run_log(path):
+    """The reference run's log beside a results file or one folder up (micro_nns/, hints/), or None."""
+    for folder in (Path(path).parent, Path(path).parent.parent):
+        if (folder / RUN_LOG).is_file():
+            return folder / RUN_LOG
+    return None
+
+
+def sittings(path, context):
+    """Every sitting of the run that wrote this file, from the run's log when the log knows them all (as many
+    sittings as the file records, the last starting within a minute of the file's), else None."""
+    log = find_run_log(path)
+    out = output_path(context.get("command_line"))
+    found = run_log_sittings(log.read_text(errors="replace")).get(out) if log and out else None
+    starts = [start_time(context)] + resumed_starts(context)
+    if not found or starts[-1] is None or len(found) != len(starts) \
+            or abs((found[-1][0] - starts[-1]).total_seconds()) > 60:
+        return None
+    return found
+
+
+def intervals(path, context):
+    """The run's time intervals: every sitting from the run's log, else the last sitting (interval)."""
+    return sittings(path, context) or [i for i in [interval(context)] if i is not None]
+
+
+def _sittings_text(path, context):
+    logged, resumed = sittings(path, context), resumed_starts(context)
+    if logged and len(logged) > 1:
+        return f" ({len(logged)} sittings, each checked for overlap from the run's log)"
+    if resumed:
+        return (f" (its last of {len(resumed) + 1} sittings; the earlier ones' ends are not recorded, so only the last "
+                "is checked for overlap)")
+    return ""
 
 
 def describe(path, context):
@@ -80,20 +147,22 @@ def describe(path, context):
     return (f"`{results_io.display_path(path)}`: experiment {results_io.experiment_of(context) or '?'}; "
             f"commit {commit}{dirty}; command `{command}`; load {_load_text(context.get('load_avg'))} before, "
             f"{after} after; started {context.get('date', '?')}, "
-            f"wall time {'not recorded' if wall is None else f'{wall:.0f} s'}"
-            + (f" (its last of {len(resumed) + 1} sittings; the earlier ones' ends are not recorded, so only the last "
-               "is checked for overlap)" if (resumed := resumed_starts(context)) else ""))
+            f"wall time {'not recorded' if wall is None else f'{wall:.0f} s'}" + _sittings_text(path, context))
+
+
+LOG_RESOLUTION = datetime.timedelta(seconds=2)  # the log's whole seconds against a file's fractional wall time
 
 
 def overlaps(files):
-    """[(path a, path b)] of runs on the same host (or an unknown one) whose time intervals intersect."""
-    runs = [(path, ctx, interval(ctx)) for path, ctx in files]
-    runs = [r for r in runs if r[2] is not None]
+    """[(path a, path b)] of runs on the same host (or an unknown one) any of whose time intervals intersect by
+    more than the log's resolution."""
+    runs = [(path, ctx, intervals(path, ctx)) for path, ctx in files]
     out = []
-    for i, (pa, ca, (sa, ea)) in enumerate(runs):
-        for pb, cb, (sb, eb) in runs[i + 1:]:
+    for i, (pa, ca, ia) in enumerate(runs):
+        for pb, cb, ib in runs[i + 1:]:
             same_host = not ca.get("host_name") or not cb.get("host_name") or ca["host_name"] == cb["host_name"]
-            if pa != pb and same_host and sa < eb and sb < ea:
+            if pa != pb and same_host and any(sa + LOG_RESOLUTION < eb and sb + LOG_RESOLUTION < ea
+                                                      for sa, ea in ia for sb, eb in ib):
                 out.append((pa, pb))
     return out
 

@@ -341,20 +341,23 @@ def load(paths, prefer=None):
             elif kind == "icp":
                 _read_icp(results, rec, experiment_of(context), context)
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
-    results.sweep = _one_set_size(results.sweep, sweep_files)
+    rank = {path: (file_date(context), i) for i, (path, context) in enumerate(results.files)}
+    results.sweep = _one_set_size(results.sweep, sweep_files, rank)
     results.sweep = _one_k(_last_wins(results.sweep,
                                       lambda c: (c.model, c.query, c.adapter, c.search, c.strategy, c.max_dist_m, c.k)))
     results.icp = _last_wins(results.icp, lambda r: (r.experiment, r.pair, r.adapter, r.bucket_size))
     return results
 
 
-def _one_set_size(cells, files):
+def _one_set_size(cells, files, rank):
     """A combination swept at other set sizes in another file (quick's 15,000 points beside the grid's 60,000) is
-    not the same series: per (model, query), cells whose sizes differ from those of the last file read (the
-    newest with prefer) are left out, and said so."""
+    not the same series: per (model, query), cells whose sizes differ from those of the newest file (by context
+    date, then reading order: rank) are left out, and said so."""
     newest = {}
     for cell, path in zip(cells, files):
-        newest[(cell.model, cell.query)] = (path, (cell.n_points, cell.n_queries))
+        key = (cell.model, cell.query)
+        if key not in newest or rank[path] >= rank[newest[key][0]]:
+            newest[key] = (path, (cell.n_points, cell.n_queries))
     kept, dropped = [], Counter()
     for cell, path in zip(cells, files):
         last_path, sizes = newest[(cell.model, cell.query)]

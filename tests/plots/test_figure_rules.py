@@ -85,6 +85,10 @@ class FigureRulesTest(unittest.TestCase):
         r.files = [("old.json", {"date": "2024-01-01"}), ("new.json", {"date": "2025-01-01"})]
         r.builds = [results_io.Build("m", "a", 5.0, None, 10, 1), results_io.Build("m", "a", 1.0, None, 10, 0)]
         self.assertEqual(fig_build.build_table(r), {("m", "a"): 5.0})
+        r.builds = [results_io.Build("m", "a", 5.0, None, 60000, 1), results_io.Build("m", "a", 1.0, None, 15000, 0)]
+        self.assertEqual(fig_build.model_title(r, "m"), "m (60,000 points)", "the size of the build drawn")
+        r.builds.append(results_io.Build("m", "only_in_old", 0.5, None, 15000, 0))
+        self.assertEqual(fig_build.build_table(r), {("m", "a"): 5.0}, "one set size per model: the newest run's")
 
     def test_speed_ups_are_over_the_faster_nanoflann_at_each_distance(self):
         adapters = {**fixtures.ADAPTERS, "nanoflann_latest": ("nanoflann", "k-d tree", {"ranged": "native"})}

@@ -98,13 +98,37 @@ class ProvenanceTest(unittest.TestCase):
         old = fixtures.write(self.dir / "quick.json", "quick", small, date="2024-01-01T00:00:00")
         new = fixtures.write(self.dir / "grid.json", "paper", sized(fixtures.sweep_records(shapes=("hollow_sphere",)),
                              60000), date="2024-02-01T00:00:00")
-        results = results_io.load([new, old], prefer="newest")
-        self.assertTrue(results.sweep)
-        self.assertEqual({c.n_points for c in results.sweep}, {60000})
+        for prefer in ("newest", None):
+            results = results_io.load([new, old], prefer=prefer)
+            self.assertEqual({c.n_points for c in results.sweep}, {60000}, "the newest file's sizes, read in any order")
         self.assertNotIn(0.77, {c.max_dist_m for c in results.sweep})
         self.assertEqual(results.duplicates, {}, "the same names at other set sizes are other cells")
         self.assertEqual(run_findings(old, new, "--out", self.out).returncode, 0)
         self.assertNotIn("NOT A CLEAN RUN", self.out.read_text())
+
+    def test_every_sitting_in_the_run_log_is_checked_for_overlap(self):
+        """A resumed run's earlier sittings have no end in its file; the reference run's log has them all."""
+        def run(name, date, wall, resumed=()):
+            f = fixtures.write(self.dir / name, "paper", fixtures.build_records(shapes=(name[:-5],)), date=date,
+                               wall_seconds=wall)
+            doc = json.loads(f.read_text())
+            doc["context"].update(command_line=f"run_sweep --out /run/{name}", resumed=list(resumed))
+            f.write_text(json.dumps(doc))
+            return f
+        a = run("hollow_cube.json", "2024-01-01T09:00:00+00:00", 600, ["2024-01-01T12:00:00+00:00"])
+        b = run("filled_cube.json", "2024-01-01T10:00:00+00:00", 60)
+        log = self.dir / "reference_run_log.txt"
+        log.write_text("2024-01-01T09:00:00+00:00 start a at 0123456, tree clean: run_sweep --out /run/hollow_cube.json"
+                       " | load 1.0 1.0 1.0\n2024-01-01T10:30:00+00:00 end a rc=124 | load 1.0 1.0 1.0\n"
+                       "2024-01-01T12:00:00+00:00 start a at 0123456, tree clean: run_sweep --out /run/hollow_cube.json"
+                       " | load 1.0 1.0 1.0\n2024-01-01T12:10:00+00:00 end a rc=0 | load 1.0 1.0 1.0\n")
+        proc = run_findings(a, b, "--out", self.out)
+        self.assertEqual(proc.returncode, 2, "b ran during a's first sitting (09:00-10:30), which only the log knows")
+        self.assertIn("overlapped", proc.stderr)
+        log.write_text(log.read_text().replace("10:30:00", "09:50:00"))
+        proc = run_findings(a, b, "--out", self.out)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertIn("2 sittings, each checked for overlap from the run's log", self.out.read_text())
 
     def test_icp_experiment_name_is_read(self):
         f = fixtures.write(self.dir / "icp.json", "x", fixtures.icp_real_records())
