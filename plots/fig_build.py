@@ -4,7 +4,7 @@ import math
 import numpy as np
 
 import style
-from results_io import SHAPES, latest_builds, warn
+from results_io import SHAPES, build_rank, file_ranks, latest_builds, warn
 
 plt = style.plt
 COLUMNS = 4
@@ -13,11 +13,10 @@ COLUMNS = 4
 def drawn_builds(results):
     """{(model, adapter): Build}, each from the newest run that built it, at one set size per model: the newest
     run's (quick's 15,000-point builds of adapters the grid left out are not drawn beside its 60,000)."""
-    latest = latest_builds(results)
-    dates = [str(ctx.get("date", "")) for _, ctx in results.files]
+    latest, ranks = latest_builds(results), file_ranks(results)
     newest = {}
     for (model, _), b in latest.items():
-        rank = (dates[b.file] if b.file is not None else "", b.file or 0)
+        rank = build_rank(results, b, ranks)
         if model not in newest or rank >= newest[model][0]:
             newest[model] = (rank, b.n_points)
     return {k: b for k, b in latest.items() if None in (b.n_points, newest[k[0]][1]) or b.n_points == newest[k[0]][1]}

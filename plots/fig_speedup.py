@@ -12,8 +12,9 @@ MICRO_TITLES = {"fig3": "Figure 3 pair, micro-benchmark", "sick": "SICK office s
                 "sick_shuffled": "SICK office scan, queries shuffled"}
 
 
-def faster_nanoflann(times):
-    """{max_dist: the faster nanoflann's seconds} from {adapter: {max_dist: seconds}}."""
+def faster_nanoflann_by_dist(times):
+    """{max_dist: the faster nanoflann's seconds} from {adapter: {max_dist: seconds}} (fig_icp.faster_nanoflann
+    per distance)."""
     out = {}
     for name in NANOFLANNS:
         for d, seconds in times.get(name, {}).items():
@@ -26,7 +27,7 @@ def sweep_ratios(results, model, query):
     """{adapter: [(max_dist, the faster nanoflann's time / adapter time)]} over the ranged series of one
     combination; both nanoflanns are drawn too (the faster at 1 at each distance)."""
     series = {a: cells for (a, kind), cells in sweep_series(results, model, query).items() if kind == "ranged"}
-    ref = faster_nanoflann({a: {c.max_dist_m: c.seconds for c in cells} for a, cells in series.items()})
+    ref = faster_nanoflann_by_dist({a: {c.max_dist_m: c.seconds for c in cells} for a, cells in series.items()})
     if not ref:
         return {}
     both = all(n in series for n in NANOFLANNS)

@@ -36,11 +36,7 @@ def _load_text(load):
 
 def start_time(context):
     """The run's start as an aware datetime (naive dates read as UTC), or None."""
-    try:
-        when = datetime.datetime.fromisoformat(str(context.get("date")))
-    except ValueError:
-        return None
-    return when if when.tzinfo else when.replace(tzinfo=datetime.timezone.utc)
+    return _when(context.get("date"))
 
 
 def wall_seconds(context):
@@ -49,6 +45,7 @@ def wall_seconds(context):
 
 
 def _when(text):
+    """An ISO time as an aware datetime (naive ones read as UTC), or None."""
     try:
         when = datetime.datetime.fromisoformat(str(text))
     except ValueError:

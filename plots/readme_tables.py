@@ -61,9 +61,9 @@ def real_sweep_lines(results, shown=3, max_dist_m=0.1):
         texts = [f"{a} {timed[a].seconds * 1e3:.3g} ms" + (" (DISAGREES)" if timed[a].agrees is False else "")
                  for a in ranked[:shown]]
         texts += ["-"] * (shown - len(texts))
-        nanoflann = [a for a in ranked if a in ("nanoflann_kdtree", "nanoflann_latest")]
-        ref = f"{nanoflann[0]} {timed[nanoflann[0]].seconds * 1e3:.3g} ms" if nanoflann else "-"
-        ratio = f"{timed[nanoflann[0]].seconds / timed[ranked[0]].seconds:.2f}x" if nanoflann else "-"
+        name = fig_icp.faster_nanoflann({a: (c.seconds,) for a, c in timed.items()})
+        ref = f"{name} {timed[name].seconds * 1e3:.3g} ms" if name else "-"
+        ratio = f"{timed[name].seconds / timed[ranked[0]].seconds:.2f}x" if name else "-"
         queries = next((c.n_queries for c in cells.values() if c.n_queries), None)
         lines.append(f"| {pair} | {f'{queries:,.0f}' if queries else '?'} | " + " | ".join(texts)
                      + f" | {ref} | {ratio} | {len(ranked)} of {len(cells)} |")

@@ -201,13 +201,23 @@ def micro_queries(results):
     return {c.pair: c.n_queries for c in results.micro if c.n_queries}
 
 
+def file_ranks(results):
+    """Each file's place in time, by its index in results.files: (context date, reading order); larger is newer."""
+    return [(file_date(ctx), i) for i, (_, ctx) in enumerate(results.files)]
+
+
+def build_rank(results, build, ranks=None):
+    """The rank (file_ranks) of the file a build came from."""
+    return (ranks or file_ranks(results))[build.file] if build.file is not None else ("", 0)
+
+
 def latest_builds(results):
     """{(model, adapter): Build} from the newest file that built it (by context date, then reading order)."""
-    dates = [str(ctx.get("date", "")) for _, ctx in results.files]
+    ranks = file_ranks(results)
     out = {}
     for b in results.builds:
         key = (b.model, b.adapter)
-        rank = (dates[b.file] if b.file is not None else "", b.file or 0)
+        rank = build_rank(results, b, ranks)
         if key not in out or rank >= out[key][0]:
             out[key] = (rank, b)
     return {k: b for k, (_, b) in out.items()}
@@ -341,7 +351,7 @@ def load(paths, prefer=None):
             elif kind == "icp":
                 _read_icp(results, rec, experiment_of(context), context)
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
-    rank = {path: (file_date(context), i) for i, (path, context) in enumerate(results.files)}
+    rank = {path: r for (path, _), r in zip(results.files, file_ranks(results))}
     results.sweep = _one_set_size(results.sweep, sweep_files, rank)
     results.sweep = _one_k(_last_wins(results.sweep,
                                       lambda c: (c.model, c.query, c.adapter, c.search, c.strategy, c.max_dist_m, c.k)))
