@@ -530,6 +530,45 @@ std::uint64_t code_of(const std::array<std::uint32_t, 3>& cell) {
   return ours::spread_bits_3(cell[0]) | ours::spread_bits_3(cell[1]) << 1 | ours::spread_bits_3(cell[2]) << 2;
 }
 
+// Every vector path of the bucket scan gives each distance as nnb::sq_dist_m2 does, to the bit, and their
+// minimum, for every block length (the paths differ in their tails) and awkward magnitudes.
+TEST(OursScan, EveryVectorPathComputesDistancesAsSqDistM2) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  const std::array<double, 4> scales{1e-9, 1.0, 3e5, 1e150};
+  for (const double scale : scales) {
+    for (std::uint32_t m = 1; m <= ours::kScanBlock; ++m) {
+      std::array<std::vector<double>, 3> xyz;
+      for (auto& axis : xyz) {
+        axis.resize(m);
+        for (double& v : axis) v = scale * unit(rng);
+      }
+      const std::array<double, 3> q{scale * unit(rng), scale * unit(rng), scale * unit(rng)};
+      std::vector<double> expected(m);
+      double expected_min = std::numeric_limits<double>::infinity();
+      for (std::uint32_t i = 0; i < m; ++i) {
+        const std::array<double, 3> p{xyz[0][i], xyz[1][i], xyz[2][i]};
+        expected[i] = nnb::sq_dist_m2(q.data(), p.data());
+        expected_min = std::min(expected_min, expected[i]);
+      }
+      const auto check = [&](const char* path, auto scan) {
+        std::vector<double> sq(m, -1.0);
+        const double min = scan(xyz[0].data(), xyz[1].data(), xyz[2].data(), m, q, sq.data());
+        EXPECT_EQ(min, expected_min) << path << ", m = " << m << ", scale " << scale;
+        for (std::uint32_t i = 0; i < m; ++i) {
+          ASSERT_EQ(std::memcmp(&sq[i], &expected[i], sizeof(double)), 0)
+              << path << ", point " << i << " of " << m << ", scale " << scale;
+        }
+      };
+      check("portable", ours::detail::block_sq_dists_portable<double>);
+#if defined(OURS_WIDE_SIMD)
+      if (ours::detail::kHasAvx2) check("avx2", ours::detail::block_sq_dists_avx2);
+#endif
+      check("dispatched", ours::block_sq_dists<double>);
+    }
+  }
+}
+
 TEST(QueryOrder, MortonOrderIsAPermutationAlongTheCurve) {
   const Cloud queries = queries_for(sphere(5000), 2.0, 3000);
   ours::QueryOrder order;

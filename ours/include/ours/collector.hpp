@@ -19,19 +19,59 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#define OURS_WIDE_SIMD 1
+#endif
 
 namespace ours {
 
 /// Points are scanned in blocks of at most this many: distances first (vectorised), then the collector.
 constexpr std::uint32_t kScanBlock = 64;
 
-/// Writes the squared distances (m^2, in T) from q to m <= kScanBlock points given as separate x, y, z
-/// arrays into sq, and returns their minimum. Each is computed as nnb::sq_dist_m2 computes it, so a
-/// double tree's distances stay bit-exact; only the minimum is taken with SSE2 (GCC does not vectorise
-/// a floating-point min reduction without -ffast-math).
+namespace detail {
+#if defined(OURS_WIDE_SIMD)
+// Four points at a time, chosen at run time so the binary stays portable. Built for AVX2 alone, not FMA:
+// a fused multiply-add would round differently from sq_dist_m2.
+__attribute__((target("avx2"))) inline double block_sq_dists_avx2(const double* xs, const double* ys,
+                                                                    const double* zs, std::uint32_t m,
+                                                                    const std::array<double, 3>& q,
+                                                                    double* __restrict sq) {
+  const __m256d qx = _mm256_set1_pd(q[0]), qy = _mm256_set1_pd(q[1]), qz = _mm256_set1_pd(q[2]);
+  __m256d low = _mm256_set1_pd(std::numeric_limits<double>::infinity());
+  std::uint32_t i = 0;
+  for (; i + 4 <= m; i += 4) {
+    const __m256d dx = _mm256_sub_pd(qx, _mm256_loadu_pd(xs + i));
+    const __m256d dy = _mm256_sub_pd(qy, _mm256_loadu_pd(ys + i));
+    const __m256d dz = _mm256_sub_pd(qz, _mm256_loadu_pd(zs + i));
+    const __m256d d2 =
+        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
+    _mm256_storeu_pd(sq + i, d2);
+    low = _mm256_min_pd(low, d2);
+  }
+  const __m128d half = _mm_min_pd(_mm256_castpd256_pd128(low), _mm256_extractf128_pd(low, 1));
+  double best = std::min(_mm_cvtsd_f64(half), _mm_cvtsd_f64(_mm_unpackhi_pd(half, half)));
+  for (; i < m; ++i) {
+    const double dx = q[0] - xs[i];
+    const double dy = q[1] - ys[i];
+    const double dz = q[2] - zs[i];
+    sq[i] = dx * dx + dy * dy + dz * dz;
+    best = std::min(best, sq[i]);
+  }
+  return best;
+}
+
+/// Whether this CPU (and its OS) runs AVX2; read once, at start-up.
+inline const bool kHasAvx2 = [] {
+  __builtin_cpu_init();  // static initialisers may run before libgcc's own
+  return __builtin_cpu_supports("avx2") != 0;
+}();
+#endif
+
+/// block_sq_dists on every x86-64 (SSE2) and elsewhere (scalar).
 template <typename T>
-inline T block_sq_dists(const T* xs, const T* ys, const T* zs, std::uint32_t m, const std::array<T, 3>& q,
-                        T* __restrict sq) {
+inline T block_sq_dists_portable(const T* xs, const T* ys, const T* zs, std::uint32_t m, const std::array<T, 3>& q,
+                                 T* __restrict sq) {
   T best = std::numeric_limits<T>::infinity();
   std::uint32_t i = 0;
 #if defined(__SSE2__)
@@ -75,6 +115,22 @@ inline T block_sq_dists(const T* xs, const T* ys, const T* zs, std::uint32_t m, 
     best = std::min(best, sq[i]);
   }
   return best;
+}
+}  // namespace detail
+
+/// Writes the squared distances (m^2, in T) from q to m <= kScanBlock points given as separate x, y, z
+/// arrays into sq, and returns their minimum. Each is computed as nnb::sq_dist_m2 computes it, so a
+/// double tree's distances stay bit-exact; the minimum is taken in vector registers (GCC does not
+/// vectorise a floating-point min reduction without -ffast-math).
+template <typename T>
+inline T block_sq_dists(const T* xs, const T* ys, const T* zs, std::uint32_t m, const std::array<T, 3>& q,
+                        T* __restrict sq) {
+#if defined(OURS_WIDE_SIMD)
+  if constexpr (std::is_same_v<T, double>) {
+    if (detail::kHasAvx2) return detail::block_sq_dists_avx2(xs, ys, zs, m, q, sq);
+  }
+#endif
+  return detail::block_sq_dists_portable(xs, ys, zs, m, q, sq);
 }
 
 /// Returns the position of the first of sq[0, m) equal to value (m when none is).
