@@ -149,10 +149,24 @@ void SearchIndex::set_threads(int threads) {
   threads_ = threads;
 }
 
-// Slices a thread takes on average: the cost of a query varies along a scan (dense near the scanner, empty
-// far from it), so equal halves leave one thread idle; smaller slices taken in turn even the load out,
-// and each is still a run of consecutive queries (scan order kept for the structures that exploit it).
-constexpr Eigen::Index kSlicesPerThread = 8;
+namespace {
+
+// Where the slices of n queries for `threads` threads begin (and, last, n). The cost of a query varies along
+// a scan (dense near the scanner, empty far from it), so equal halves leave one thread idle; slices taken
+// in turn even the load out, and each is still a run of consecutive queries (scan order kept for the
+// structures that exploit it). Each slice is a 2 x threads-th of what is left (guided scheduling): the
+// first are large, the last small, so the threads finish together (with 16 equal slices, the last one
+// kept the other thread waiting a quarter of a batch's time).
+std::vector<Eigen::Index> slice_starts(Eigen::Index n, int threads, Eigen::Index smallest) {
+  std::vector<Eigen::Index> starts{0};
+  while (starts.back() < n) {
+    const Eigen::Index left = n - starts.back();
+    starts.push_back(starts.back() + std::min(left, std::max(smallest, left / (2 * threads))));
+  }
+  return starts;
+}
+
+}  // namespace
 
 void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const SliceAnswer& answer,
                                    bool may_reorder) const {
@@ -164,14 +178,15 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
     return;
   }
   const std::vector<PointIndex> order = may_reorder ? slicing_order(queries) : std::vector<PointIndex>{};
-  const Eigen::Index slices = std::min(most, kSlicesPerThread * threads);
+  const std::vector<Eigen::Index> starts = slice_starts(n, threads, kMinQueriesPerThread);
+  const auto slices = static_cast<Eigen::Index>(starts.size() - 1);
   std::vector<Neighbours> rows(static_cast<std::size_t>(slices));
   std::vector<std::exception_ptr> errors(static_cast<std::size_t>(slices));
   std::atomic<Eigen::Index> next{0};
   const auto take_slices = [&] {
     for (Eigen::Index s = next++; s < slices; s = next++) {
-      const Eigen::Index first = n * s / slices;
-      const Eigen::Index last = n * (s + 1) / slices;
+      const Eigen::Index first = starts[static_cast<std::size_t>(s)];
+      const Eigen::Index last = starts[static_cast<std::size_t>(s) + 1];
       try {
         Cloud slice(3, last - first);
         for (Eigen::Index i = first; i < last; ++i)

@@ -122,9 +122,9 @@ class SearchIndex {
   void ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
                      Neighbours& out) const;
 
-  /// Threads a batch may use (1 to kMaxThreads, default 1): Concurrency::queries adapters answer a batch in
-  /// that many contiguous slices, one thread each (at least kMinQueriesPerThread queries a slice), and
-  /// return the rows in the caller's order; Concurrency::library adapters hand the number to their library;
+  /// Threads a batch may use (1 to kMaxThreads, default 1): Concurrency::queries adapters answer a batch on
+  /// that many threads, in runs of consecutive queries taken in turn (at least kMinQueriesPerThread queries
+  /// each, but the last), and return the rows in the caller's order; Concurrency::library adapters hand the number to their library;
   /// Concurrency::single adapters stay on one thread. Throws InputError outside [1, kMaxThreads].
   void set_threads(int threads);
   /// The threads asked for.
