@@ -38,55 +38,9 @@
 #include <utility>
 #include <vector>
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
 namespace ours {
 
 /// A cell the k-d tree search has still to visit: its node, squared distance (m^2) and per-axis offsets.
-/// The standard allocator, except that resize() leaves numbers uninitialised (a build writes every
-/// coordinate and index at once, and zeroing hundreds of megabytes first only costs time), and that on
-/// Linux large blocks ask for transparent huge pages: a first touch then maps 2 MB, not 4 KB, and page
-/// faults were a third of building a 16M-point tree.
-template <typename U>
-struct DefaultInit : std::allocator<U> {
-  template <typename V>
-  struct rebind {
-    using other = DefaultInit<V>;
-  };
-  DefaultInit() = default;
-  template <typename V>
-  DefaultInit(const DefaultInit<V>&) noexcept {}
-
-  static constexpr std::size_t kHugePage = std::size_t(2) << 20;
-  static constexpr std::size_t kHugeBlockMin = 2 * kHugePage;  // smaller blocks: the standard allocator
-
-  U* allocate(std::size_t n) {
-#if defined(__linux__)
-    const std::size_t bytes = n * sizeof(U);
-    if (bytes >= kHugeBlockMin) {
-      void* block = std::aligned_alloc(kHugePage, (bytes + kHugePage - 1) / kHugePage * kHugePage);
-      if (!block) throw std::bad_alloc();
-      ::madvise(block, bytes, MADV_HUGEPAGE);  // advice only: without it the block works the same
-      return static_cast<U*>(block);
-    }
-#endif
-    return std::allocator<U>::allocate(n);
-  }
-  void deallocate(U* block, std::size_t n) noexcept {
-#if defined(__linux__)
-    if (n * sizeof(U) >= kHugeBlockMin) return std::free(block);
-#endif
-    std::allocator<U>::deallocate(block, n);
-  }
-  template <typename V, typename... Args>
-  void construct(V* at, Args&&... args) {
-    if constexpr (sizeof...(Args) == 0) ::new (static_cast<void*>(at)) V;
-    else ::new (static_cast<void*>(at)) V(std::forward<Args>(args)...);
-  }
-};
-
 template <typename T>
 struct PendingCell {
   std::array<T, 3> offsets;

@@ -13,6 +13,7 @@
 // used in leaves, and to shrink the ball when a leaf improved the bound. In a batch, the path to each
 // query's own leaf starts from the previous query's: scan-ordered queries mostly share all of it.
 #include "ours/collector.hpp"
+#include "ours/query_order.hpp"
 
 #include <algorithm>
 #include <array>
@@ -87,24 +88,31 @@ class Octree {
     }
     scale_ = double(1u << kMaxLevel) / side_m_;
 
-    std::vector<std::array<std::uint32_t, 3>> cells(n);
+    // Each point's cell as one Morton key (bit 3b + d is bit b of axis d), moved along with its index:
+    // a level's pass then reads its keys in order instead of three coordinates from all over the cloud.
+    Scratch<std::uint64_t> keys(n), key_scratch(n);
+    Scratch<std::uint32_t> order(n), scratch(n);
     for (std::size_t i = 0; i < n; ++i) {
-      for (int d = 0; d < 3; ++d) cells[i][d] = to_int(d, xyz[3 * i + d]);
+      keys[i] = 0;
+      for (int d = 0; d < 3; ++d) {
+        const std::uint32_t c = to_int(d, xyz[3 * i + d]);
+        keys[i] |= (std::uint64_t(spread_bits_3(c)) | std::uint64_t(spread_bits_3(c >> 10)) << 30) << d;
+      }
+      order[i] = static_cast<std::uint32_t>(i);
     }
-    std::vector<std::uint32_t> order(n), scratch(n);
-    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
     nodes_.push_back(Node{0, 0});
     root_is_leaf_ = !should_split(static_cast<std::uint32_t>(n), 0);
     if (root_is_leaf_) {
       nodes_[0] = Node{static_cast<std::uint32_t>(n), 0};
     } else {
-      build_children(0, cells, order.data(), scratch.data(), 0, static_cast<std::uint32_t>(n), 0);
+      const Partition parts{keys.data(), key_scratch.data(), order.data(), scratch.data()};
+      build_children(0, parts, 0, static_cast<std::uint32_t>(n), 0);
     }
     nodes_.shrink_to_fit();
     points_.resize(3 * n);
-    indices_ = order;
+    indices_ = std::move(order);
     for (std::size_t i = 0; i < n; ++i) {
-      for (int d = 0; d < 3; ++d) points_[d * n + i] = T(xyz[3 * order[i] + d] - origin_[d]);
+      for (int d = 0; d < 3; ++d) points_[d * n + i] = T(xyz[3 * indices_[i] + d] - origin_[d]);
     }
   }
 
@@ -154,7 +162,7 @@ class Octree {
   const std::vector<Node>& nodes() const { return nodes_; }
   bool root_is_leaf() const { return root_is_leaf_; }
   /// Returns the model indices of the leaf points, in tree order.
-  const std::vector<std::uint32_t>& indices() const { return indices_; }
+  const std::vector<std::uint32_t, DefaultInit<std::uint32_t>>& indices() const { return indices_; }
   /// Returns coordinate d of leaf entry i (T, relative to origin()). The copies are kept in tree order
   /// as three arrays (all x, all y, all z), for vectorised leaf scans.
   T coord(std::size_t i, int d) const { return points_[std::size_t(d) * n_ + i]; }
@@ -198,22 +206,31 @@ class Octree {
     return side_m_ / double(1u << (level + 1)) >= min_cell_m_;
   }
 
-  // Fills the children of the inner node `self` (cell at `level`) from order[begin, end).
-  void build_children(std::size_t self, const std::vector<std::array<std::uint32_t, 3>>& cells, std::uint32_t* order,
-                      std::uint32_t* scratch, std::uint32_t begin, std::uint32_t end, int level) {
-    const int shift = kMaxLevel - level - 1;
-    auto child_of = [&](std::uint32_t i) {
-      return ((cells[i][0] >> shift) & 1u) | (((cells[i][1] >> shift) & 1u) << 1) | (((cells[i][2] >> shift) & 1u) << 2);
-    };
+  // The points being sorted into cells: their Morton keys and model indices, side by side, and room for
+  // one pass's output of each.
+  struct Partition {
+    std::uint64_t* keys;
+    std::uint64_t* key_scratch;
+    std::uint32_t* order;
+    std::uint32_t* scratch;
+  };
+
+  // Fills the children of the inner node `self` (cell at `level`) from points [begin, end).
+  void build_children(std::size_t self, const Partition& parts, std::uint32_t begin, std::uint32_t end, int level) {
+    const int shift = 3 * (kMaxLevel - level - 1);
+    const auto child_of = [shift](std::uint64_t key) { return static_cast<unsigned>(key >> shift) & 7u; };
     std::array<std::uint32_t, 9> start{};
-    for (std::uint32_t i = begin; i < end; ++i) ++start[child_of(order[i]) + 1];
+    for (std::uint32_t i = begin; i < end; ++i) ++start[child_of(parts.keys[i]) + 1];
     for (int j = 0; j < 8; ++j) start[j + 1] += start[j];
     std::array<std::uint32_t, 8> fill{};
     for (std::uint32_t i = begin; i < end; ++i) {
-      const unsigned j = child_of(order[i]);
-      scratch[begin + start[j] + fill[j]++] = order[i];
+      const unsigned j = child_of(parts.keys[i]);
+      const std::uint32_t to = begin + start[j] + fill[j]++;
+      parts.key_scratch[to] = parts.keys[i];
+      parts.scratch[to] = parts.order[i];
     }
-    std::copy(scratch + begin, scratch + end, order + begin);
+    std::copy(parts.key_scratch + begin, parts.key_scratch + end, parts.keys + begin);
+    std::copy(parts.scratch + begin, parts.scratch + end, parts.order + begin);
 
     unsigned valid = 0, leaves = 0;
     for (int j = 0; j < 8; ++j) {
@@ -233,7 +250,7 @@ class Octree {
       if (leaves & (1u << j)) {
         nodes_[slot] = Node{ce - cb, cb};
       } else {
-        build_children(slot, cells, order, scratch, cb, ce, level + 1);
+        build_children(slot, parts, cb, ce, level + 1);
       }
       ++slot;
     }
@@ -432,9 +449,12 @@ class Octree {
     scan_points(xs, xs + n_, xs + 2 * n_, indices_.data(), leaf.first, leaf.first + leaf.word, q.p, collect);
   }
 
+  template <typename U>
+  using Scratch = std::vector<U, DefaultInit<U>>;  // filled once, never zeroed first
+
   std::vector<Node> nodes_;
-  std::vector<T> points_;
-  std::vector<std::uint32_t> indices_;
+  Scratch<T> points_;
+  Scratch<std::uint32_t> indices_;
   std::array<double, 3> origin_{0, 0, 0};
   std::array<double, 3> cube_lo_{0, 0, 0};
   double side_m_ = 1;
