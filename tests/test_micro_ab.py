@@ -1,0 +1,40 @@
+#!/usr/bin/env python3
+"""scripts/micro_ab.sh: one micro_nns as both A and B on two cheap benchmarks gives one row each, with both
+times and their ratio, and the header names the binaries and the load; bad arguments exit 2 with one line.
+
+Usage: test_micro_ab.py MICRO_AB_SH MICRO_NNS. Never a timing: the ratio is only checked to be a number."""
+import re
+import subprocess
+import sys
+
+FILTER = "^(Build/fig3/ours_kdtree|Ranged1NN/fig3/ours_kdtree/0.10)$"
+
+
+def main(script, micro_nns):
+    failures = []
+    proc = subprocess.run([script, micro_nns, micro_nns, "1", FILTER], capture_output=True, text=True, timeout=280)
+    out = proc.stdout
+    if proc.returncode != 0:
+        failures.append(f"exit {proc.returncode}: {proc.stderr[-500:]}")
+    for line in ("# A: ", "# B: ", "# load before: ", "# load after: "):
+        if not re.search(rf"^{re.escape(line)}\S", out, re.M):
+            failures.append(f"no header line '{line}...'")
+    rows = re.findall(r"^(\S+) +([0-9.]+) +([0-9.]+) +([0-9.]+)$", out, re.M)
+    names = sorted(r[0] for r in rows)
+    if names != ["Build/fig3/ours_kdtree", "Ranged1NN/fig3/ours_kdtree/0.10"]:
+        failures.append(f"rows {names}, expected one per benchmark run:\n{out}")
+    for name, a, b, ratio in rows:
+        if not (float(a) > 0 and float(b) > 0 and abs(float(ratio) - float(b) / float(a)) < 0.002):
+            failures.append(f"{name}: A {a}, B {b}, B/A {ratio} do not add up")
+    for bad in ([micro_nns], [micro_nns, micro_nns, "0", FILTER], [micro_nns, "/no/such/binary", "1", FILTER],
+                [micro_nns, micro_nns, "two", FILTER]):
+        p = subprocess.run([script] + bad, capture_output=True, text=True, timeout=60)
+        if p.returncode != 2 or len(p.stderr.strip().splitlines()) != 1 or "micro_ab: error:" not in p.stderr:
+            failures.append(f"{bad[1:]}: exit {p.returncode}, stderr {p.stderr!r} (want exit 2 and one line)")
+    for f in failures:
+        print("FAIL:", f)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1], sys.argv[2]))
