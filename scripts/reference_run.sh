@@ -8,7 +8,7 @@
 #   scripts/reference_run.sh --out DIR --list          the steps and their commands; runs nothing
 #   scripts/reference_run.sh --out DIR --install       copy DIR's files into this clone's results/reference
 #                                                      (finished ones in place, unfinished ones gzipped to pending/,
-#                                                      the log as reference_run_log.txt)
+#                                                      the log's new lines added to reference_run_log.txt)
 #   scripts/reference_run.sh --out DIR --end-early STEP --reason TEXT
 #                                                      call STEP's file finished as it stands (the log says why);
 #                                                      for a step whose last settings would take days
@@ -118,7 +118,13 @@ if [ $install = 1 ]; then
       echo "pending $f (unfinished; --from-pending resumes it)"
     fi
   done
-  if [ -f "$out/log.txt" ]; then cp "$out/log.txt" "$dest/reference_run_log.txt"; echo "installed the log"; fi
+  # The log keeps every run's lines: a later run of some steps (from a later commit) adds its own after
+  # those of the run that made the other files, whose sittings provenance checks from them.
+  if [ -f "$out/log.txt" ]; then
+    touch "$dest/reference_run_log.txt"
+    grep -vxF -f "$dest/reference_run_log.txt" "$out/log.txt" >> "$dest/reference_run_log.txt" || true
+    echo "installed the log"
+  fi
   exit 0
 fi
 

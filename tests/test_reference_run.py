@@ -185,6 +185,18 @@ check((reference / "sweep_scale.json").exists() and (reference / "micro_nns" / "
 check((reference / "pending" / "icp_accuracy.partial.json.gz").exists(), f"unfinished file not pending: {proc.stdout}")
 check(not (reference / "icp_accuracy.json").exists(), "an unfinished file installed as finished")
 check((reference / "reference_run_log.txt").read_text() == (out3 / "log.txt").read_text(), "the log not installed")
+proc = subprocess.run([str(clone / "scripts" / SCRIPT.name), "--out", str(out3), "--install"],
+                      capture_output=True, text=True)
+check((reference / "reference_run_log.txt").read_text() == (out3 / "log.txt").read_text(),
+      "installing the same run twice repeated its log lines")
+# A later run of one step: its file replaces the old one, its log lines follow the first run's.
+out5 = WORK / "out5"
+run(tree, out5, "--steps", "micro_nns")
+proc = subprocess.run([str(clone / "scripts" / SCRIPT.name), "--out", str(out5), "--install"],
+                      capture_output=True, text=True)
+check(proc.returncode == 0 and "installed micro_nns/micro_nns.json" in proc.stdout, f"--install of one step: {proc}")
+check((reference / "reference_run_log.txt").read_text() == (out3 / "log.txt").read_text() + (out5 / "log.txt").read_text(),
+      "a later run's log lines did not follow the first run's")
 
 # --from-pending on another machine: the pending file is copied into the new folder and resumed.
 out4 = WORK / "out4"
