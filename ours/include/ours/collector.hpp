@@ -80,6 +80,20 @@ struct DefaultInit : std::allocator<U> {
 constexpr std::uint32_t kScanBlock = 64;
 
 namespace detail {
+/// The points [i, m) one at a time, as sq_dist_m2 computes them; returns the minimum of best and theirs.
+template <typename T>
+inline T scan_tail(const T* xs, const T* ys, const T* zs, std::uint32_t i, std::uint32_t m, const std::array<T, 3>& q,
+                   T* __restrict sq, T best) {
+  for (; i < m; ++i) {
+    const T dx = q[0] - xs[i];
+    const T dy = q[1] - ys[i];
+    const T dz = q[2] - zs[i];
+    sq[i] = dx * dx + dy * dy + dz * dz;
+    best = std::min(best, sq[i]);
+  }
+  return best;
+}
+
 #if defined(OURS_WIDE_SIMD)
 // Four points at a time, chosen at run time so the binary stays portable. Built for AVX2 alone, not FMA:
 // a fused multiply-add would round differently from sq_dist_m2.
@@ -100,15 +114,8 @@ __attribute__((target("avx2"))) inline double block_sq_dists_avx2(const double* 
     low = _mm256_min_pd(low, d2);
   }
   const __m128d half = _mm_min_pd(_mm256_castpd256_pd128(low), _mm256_extractf128_pd(low, 1));
-  double best = std::min(_mm_cvtsd_f64(half), _mm_cvtsd_f64(_mm_unpackhi_pd(half, half)));
-  for (; i < m; ++i) {
-    const double dx = q[0] - xs[i];
-    const double dy = q[1] - ys[i];
-    const double dz = q[2] - zs[i];
-    sq[i] = dx * dx + dy * dy + dz * dz;
-    best = std::min(best, sq[i]);
-  }
-  return best;
+  const double best = std::min(_mm_cvtsd_f64(half), _mm_cvtsd_f64(_mm_unpackhi_pd(half, half)));
+  return scan_tail(xs, ys, zs, i, m, q, sq, best);
 }
 
 /// Whether this CPU (and its OS) runs AVX2; read once, at start-up.
@@ -157,14 +164,7 @@ inline T block_sq_dists_portable(const T* xs, const T* ys, const T* zs, std::uin
     return best;
   }
 #endif
-  for (; i < m; ++i) {
-    const T dx = q[0] - xs[i];
-    const T dy = q[1] - ys[i];
-    const T dz = q[2] - zs[i];
-    sq[i] = dx * dx + dy * dy + dz * dz;
-    best = std::min(best, sq[i]);
-  }
-  return best;
+  return scan_tail(xs, ys, zs, i, m, q, sq, best);
 }
 }  // namespace detail
 
