@@ -76,6 +76,30 @@ struct DefaultInit : std::allocator<U> {
   }
 };
 
+/// The bounding box (lo, hi) of n > 0 points (x,y,z triples), two points a step: six independent
+/// running minima and maxima instead of three chains of dependent ones.
+inline void bounding_box(const double* xyz, std::size_t n, std::array<double, 3>& lo, std::array<double, 3>& hi) {
+  std::array<double, 6> low, high;
+  for (int d = 0; d < 6; ++d) low[d] = high[d] = xyz[d % 3];
+  std::size_t i = 0;
+  for (; i + 2 <= n; i += 2) {
+    for (int d = 0; d < 6; ++d) {
+      low[d] = std::min(low[d], xyz[3 * i + d]);
+      high[d] = std::max(high[d], xyz[3 * i + d]);
+    }
+  }
+  for (; i < n; ++i) {
+    for (int d = 0; d < 3; ++d) {
+      low[d] = std::min(low[d], xyz[3 * i + d]);
+      high[d] = std::max(high[d], xyz[3 * i + d]);
+    }
+  }
+  for (int d = 0; d < 3; ++d) {
+    lo[d] = std::min(low[d], low[d + 3]);
+    hi[d] = std::max(high[d], high[d + 3]);
+  }
+}
+
 /// Points are scanned in blocks of at most this many: distances first (vectorised), then the collector.
 constexpr std::uint32_t kScanBlock = 64;
 

@@ -103,7 +103,7 @@ class KdTree {
     origin_ = {0, 0, 0};
     if (n == 0) return;
     std::array<double, 3> lo{}, hi{};
-    bounds_of(xyz, n, lo, hi);
+    bounding_box(xyz, n, lo, hi);
     for (int d = 0; d < 3; ++d) origin_[d] = 0.5 * (lo[d] + hi[d]);
     // The copies in T (what the tree compares is exactly what it stores), three arrays of coordinates and
     // the model indices, are what the splits move: the tree is built in place, in its final order.
@@ -245,16 +245,6 @@ class KdTree {
     std::array<T, 3> p;
     ErrorModel<T> error;
   };
-
-  static void bounds_of(const double* xyz, std::size_t n, std::array<double, 3>& lo, std::array<double, 3>& hi) {
-    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = xyz[d];
-    for (std::size_t i = 1; i < n; ++i) {
-      for (int d = 0; d < 3; ++d) {
-        lo[d] = std::min(lo[d], xyz[3 * i + d]);
-        hi[d] = std::max(hi[d], xyz[3 * i + d]);
-      }
-    }
-  }
 
   Query make_query(const double* query) const {
     Query q;

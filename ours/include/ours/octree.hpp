@@ -72,13 +72,7 @@ class Octree {
     origin_ = {0, 0, 0};
     if (n == 0) return;
     std::array<double, 3> lo, hi;
-    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = xyz[d];
-    for (std::size_t i = 1; i < n; ++i) {
-      for (int d = 0; d < 3; ++d) {
-        lo[d] = std::min(lo[d], xyz[3 * i + d]);
-        hi[d] = std::max(hi[d], xyz[3 * i + d]);
-      }
-    }
+    bounding_box(xyz, n, lo, hi);
     side_m_ = 0;
     for (int d = 0; d < 3; ++d) side_m_ = std::max(side_m_, hi[d] - lo[d]);
     if (!(side_m_ > 0)) side_m_ = 1;  // one point or all duplicates: any cube will do

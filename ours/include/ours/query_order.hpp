@@ -4,6 +4,8 @@
 // order gets none of that. morton_order() sorts a batch along the Z-order curve of a grid over the
 // queries' bounding box (10 bits an axis, an LSD radix sort: linear time), so a tree can answer it in
 // that order and return the rows in the caller's: the same answers whatever order the caller gives.
+#include "ours/collector.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cstddef>
@@ -56,29 +58,6 @@ inline std::uint32_t grid_cell(double x, double lo, double scale) {
 #endif
 }
 
-/// The bounding box (lo, hi) of n > 0 points (x,y,z triples), two points a step: six independent
-/// running minima and maxima instead of three chains of dependent ones.
-inline void bounding_box(const double* xyz, std::size_t n, std::array<double, 3>& lo, std::array<double, 3>& hi) {
-  std::array<double, 6> low, high;
-  for (int d = 0; d < 6; ++d) low[d] = high[d] = xyz[d % 3];
-  std::size_t i = 0;
-  for (; i + 2 <= n; i += 2) {
-    for (int d = 0; d < 6; ++d) {
-      low[d] = std::min(low[d], xyz[3 * i + d]);
-      high[d] = std::max(high[d], xyz[3 * i + d]);
-    }
-  }
-  for (; i < n; ++i) {
-    for (int d = 0; d < 3; ++d) {
-      low[d] = std::min(low[d], xyz[3 * i + d]);
-      high[d] = std::max(high[d], xyz[3 * i + d]);
-    }
-  }
-  for (int d = 0; d < 3; ++d) {
-    lo[d] = std::min(low[d], low[d + 3]);
-    hi[d] = std::max(high[d], high[d + 3]);
-  }
-}
 
 /// Sorts keys by their upper 32 bits (30 used) in three stable passes of 10 bits.
 inline void radix_sort_codes(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch) {
@@ -99,7 +78,7 @@ inline void radix_sort_codes(std::vector<std::uint64_t>& keys, std::vector<std::
 /// 1024^3 grid over their bounding box; queries in one cell keep the caller's order.
 inline void morton_order(const double* xyz, std::size_t n, QueryOrder& out) {
   std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};
-  if (n > 0) detail::bounding_box(xyz, n, lo, hi);
+  if (n > 0) bounding_box(xyz, n, lo, hi);
   double span_m = 0;
   for (int d = 0; d < 3; ++d) span_m = std::max(span_m, hi[d] - lo[d]);
   // One cube for all axes keeps cells cubic; an infinite span (coordinates near the double range's
