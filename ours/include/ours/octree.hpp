@@ -99,8 +99,8 @@ class Octree {
     if (root_is_leaf_) {
       nodes_[0] = Node{static_cast<std::uint32_t>(n), 0};
     } else {
-      const Partition parts{keys.data(), key_scratch.data(), order.data(), scratch.data()};
-      build_children(0, parts, 0, static_cast<std::uint32_t>(n), 0);
+      const Partition parts{keys.data(), key_scratch.data(), order.data(), scratch.data(), order.data()};
+      build_children(0, parts, 0, static_cast<std::uint32_t>(n), 0, count_children(keys.data(), n, 0));
     }
     nodes_.shrink_to_fit();
     points_.resize(3 * n);
@@ -201,30 +201,55 @@ class Octree {
   }
 
   // The points being sorted into cells: their Morton keys and model indices, side by side, and room for
-  // one pass's output of each.
+  // one pass's output of each. A level reads one pair and writes the other, and the next level the other
+  // way round (no copy back); a leaf's indices are copied to `leaves` when they are not already there.
   struct Partition {
     std::uint64_t* keys;
     std::uint64_t* key_scratch;
     std::uint32_t* order;
     std::uint32_t* scratch;
+    std::uint32_t* leaves;
+    Partition swapped() const { return Partition{key_scratch, keys, scratch, order, leaves}; }
   };
 
-  // Fills the children of the inner node `self` (cell at `level`) from points [begin, end).
-  void build_children(std::size_t self, const Partition& parts, std::uint32_t begin, std::uint32_t end, int level) {
-    const int shift = 3 * (kMaxLevel - level - 1);
-    const auto child_of = [shift](std::uint64_t key) { return static_cast<unsigned>(key >> shift) & 7u; };
+  // Which child of a cell at `level` a key falls in.
+  static unsigned child_of(std::uint64_t key, int level) {
+    return static_cast<unsigned>(key >> (3 * (kMaxLevel - level - 1))) & 7u;
+  }
+
+  // How many of the n keys fall in each child of a cell at `level`.
+  static std::array<std::uint32_t, 8> count_children(const std::uint64_t* keys, std::size_t n, int level) {
+    std::array<std::uint32_t, 8> counts{};
+    for (std::size_t i = 0; i < n; ++i) ++counts[child_of(keys[i], level)];
+    return counts;
+  }
+
+  // Fills the children of the inner node `self` (cell at `level`) from points [begin, end), of which
+  // counts[j] fall in child j. The pass that moves the points to their children also counts them into
+  // their grandchildren: the children's own counts, without another pass over their keys.
+  void build_children(std::size_t self, const Partition& parts, std::uint32_t begin, std::uint32_t end, int level,
+                      const std::array<std::uint32_t, 8>& counts) {
     std::array<std::uint32_t, 9> start{};
-    for (std::uint32_t i = begin; i < end; ++i) ++start[child_of(parts.keys[i]) + 1];
-    for (int j = 0; j < 8; ++j) start[j + 1] += start[j];
-    std::array<std::uint32_t, 8> fill{};
-    for (std::uint32_t i = begin; i < end; ++i) {
-      const unsigned j = child_of(parts.keys[i]);
-      const std::uint32_t to = begin + start[j] + fill[j]++;
-      parts.key_scratch[to] = parts.keys[i];
-      parts.scratch[to] = parts.order[i];
+    for (int j = 0; j < 8; ++j) start[j + 1] = start[j] + counts[j];
+    std::array<std::uint32_t, 8> next;
+    for (int j = 0; j < 8; ++j) next[j] = begin + start[j];
+    std::array<std::array<std::uint32_t, 8>, 8> grandchildren{};
+    const int below = std::min(level + 1, kMaxLevel - 1);  // a child at the deepest level is a leaf anyway
+    // Scans are coherent: points come in runs of one child, moved with the write position in a register.
+    for (std::uint32_t i = begin; i < end;) {
+      const unsigned j = child_of(parts.keys[i], level);
+      std::uint32_t to = next[j];
+      std::array<std::uint32_t, 8>& grand = grandchildren[j];
+      do {
+        const std::uint64_t key = parts.keys[i];
+        ++grand[child_of(key, below)];
+        parts.key_scratch[to] = key;
+        parts.scratch[to] = parts.order[i];
+        ++to;
+        ++i;
+      } while (i < end && child_of(parts.keys[i], level) == j);
+      next[j] = to;
     }
-    std::copy(parts.key_scratch + begin, parts.key_scratch + end, parts.keys + begin);
-    std::copy(parts.scratch + begin, parts.scratch + end, parts.order + begin);
 
     unsigned valid = 0, leaves = 0;
     for (int j = 0; j < 8; ++j) {
@@ -243,8 +268,9 @@ class Octree {
       const std::uint32_t cb = begin + start[j], ce = begin + start[j + 1];
       if (leaves & (1u << j)) {
         nodes_[slot] = Node{ce - cb, cb};
+        if (parts.scratch != parts.leaves) std::copy(parts.scratch + cb, parts.scratch + ce, parts.leaves + cb);
       } else {
-        build_children(slot, parts, cb, ce, level + 1);
+        build_children(slot, parts.swapped(), cb, ce, level + 1, grandchildren[j]);
       }
       ++slot;
     }
