@@ -14,11 +14,9 @@ for bin in "$a" "$b"; do [ -x "$bin" ] || die "no executable $bin"; done
 case $rounds in '' | *[!0-9]* | 0) die "ROUNDS must be a whole number from 1 (got '$rounds')" ;; esac
 
 echo "# micro_ab: $(date -u +%Y-%m-%dT%H:%M:%SZ), $rounds rounds; command: $0 $a $b $rounds $*"
-# --version names the HEAD of the binary's source tree when it runs, not the commit it was built from: name a
-# binary kept from an older build by its commit (micro_nns_<commit>).
+# --version names the commit each binary was built from ("+dirty": from a modified tree).
 echo "# A: $a: $("$a" --version 2>&1 | head -1)"
 echo "# B: $b: $("$b" --version 2>&1 | head -1)"
-echo "# (a version names its source tree's HEAD at run time; a binary kept from an older build says so by its name)"
 echo "# load before: $(cut -d' ' -f1-3 /proc/loadavg 2>/dev/null || echo unknown)"
 runs=$(mktemp)
 trap 'rm -f "$runs"' EXIT

@@ -1,5 +1,7 @@
 #include "machine.hpp"
 
+#include "nnb_build_commit.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -48,17 +50,6 @@ int count_cpus(const std::string& list) {  // "0-1,4"
     else n += std::atoi(range.c_str() + dash + 1) - std::atoi(range.c_str()) + 1;
   }
   return n;
-}
-
-std::string run_command(const std::string& command) {
-  std::string out;
-  if (FILE* pipe = popen(command.c_str(), "r")) {
-    char buffer[256];
-    while (fgets(buffer, sizeof buffer, pipe)) out += buffer;
-    pclose(pipe);
-  }
-  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
-  return out;
 }
 
 // The caches of cpu0 as the kernel lists them; virtual machines and some arm64 kernels list none.
@@ -164,12 +155,8 @@ BuildInfo read_build_info() {
 #if defined(__SANITIZE_ADDRESS__) || defined(NNB_MACHINE_SANITIZE)
   b.sanitizers = true;
 #endif
-  // Read at run time, not baked: a binary built before the last commit would report a stale one.
-  const std::string git = "git -C '" + b.source_dir + "' ";
-  b.git_commit = run_command(git + "rev-parse HEAD 2>/dev/null");
-  if (!b.git_commit.empty() && !run_command(git + "status --porcelain --untracked-files=no 2>/dev/null").empty()) {
-    b.git_commit += "+dirty";
-  }
+  // Stamped at every build: a binary kept from an older build names the code it runs, not today's tree.
+  b.git_commit = NNB_BUILD_GIT_COMMIT;
   return b;
 }
 

@@ -28,7 +28,7 @@ struct BuildInfo {
   std::string build_type;  ///< CMAKE_BUILD_TYPE
   bool ndebug = false;     ///< assertions compiled out
   bool sanitizers = false;
-  std::string git_commit;  ///< HEAD of the source tree at run time ("+dirty" when modified), "" when unknown
+  std::string git_commit;  ///< the commit built from ("+dirty" when the tree differed from it), "" when unknown
   std::string source_dir;
   /// True when timings from this binary may be published: NDEBUG and no sanitizers.
   bool release() const { return ndebug && !sanitizers; }
