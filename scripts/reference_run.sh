@@ -177,6 +177,9 @@ if [ $build = 1 ]; then
   cmake --preset release
   cmake --build --preset release -j "$(nproc 2>/dev/null || echo 2)"
 fi
+# The binaries name the commit they were built from: a build older than HEAD would mislabel every file.
+built=$("$bench/nns_query" --version 2>/dev/null | sed -n 's/.*(git \([^,]*\),.*/\1/p')
+[ "$built" = "$commit" ] || die "$bench was built from ${built:-an unknown commit}, not the clean HEAD $commit: build it (or drop --no-build)"
 
 log() { echo "$(date -Is) $* | load $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/log.txt"; }
 

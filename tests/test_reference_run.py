@@ -19,13 +19,13 @@ STAND_IN = r'''#!/usr/bin/env python3
 import os, sys, time
 name = os.path.basename(sys.argv[0])
 args = sys.argv[1:]
+if args[:1] == ["--version"]:  # not recorded: the script asks before any step
+    print(name + " 0.1 (git " + os.environ.get("STAMP", "") + ", Release)")
+    sys.exit(0)
 with open(os.environ["CALLS"], "a") as f:
     f.write(name + " " + " ".join(args) + "\n")
 if args[:1] == ["--list"]:
     print("brute_force\tx\nours_kdtree\tx\nspatialindex_rstar\tx\nspatialindex_quadratic\tx\nnanoflann_kdtree\tx")
-    sys.exit(0)
-if args[:1] == ["--version"]:
-    print(name + " 0.1 (stand-in)")
     sys.exit(0)
 out = [a.split("=", 1)[1] for a in args if a.startswith("--benchmark_out=")]
 out += [args[i + 1] for i, a in enumerate(args[:-1]) if a in ("--out", "--describe-real-pairs", "--stats") and args[i + 1] != "-"]
@@ -69,8 +69,14 @@ def make_bench(path):
     return path
 
 
+def head(tree):
+    return subprocess.run(["git", "-C", str(tree), "rev-parse", "HEAD"], check=True, capture_output=True,
+                          text=True).stdout.strip()
+
+
 def run(tree, out, *args, expect=0, env_extra=None, timeout=60):
-    env = dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS), **(env_extra or {}))
+    env = dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS), STAMP=head(tree))
+    env.update(env_extra or {})
     proc = subprocess.run([str(SCRIPT), "--source", str(tree), "--out", str(out), "--no-build", *args],
                           capture_output=True, text=True, env=env, timeout=timeout)
     if expect == 0:
@@ -99,6 +105,10 @@ run(tree, WORK / "out", expect=2)
 git(tree, "checkout", "-q", "README.md")
 run(tree, WORK / "out", "--steps", "nonsense", expect=2)
 check(not calls(), f"a refused run called programs: {calls()}")
+# Binaries built from another commit (or from a modified tree) would mislabel every file.
+run(tree, WORK / "stale", expect=2, env_extra={"STAMP": "0" * 40})
+run(tree, WORK / "stale", expect=2, env_extra={"STAMP": head(tree) + "+dirty"})
+check(not calls(), f"a run on stale binaries called programs: {calls()}")
 
 # A whole run: every step once, in order, each output written, the grid without brute force and
 # libspatialindex and libspatialindex on its own, ICP on the real pairs at the bucket run's best buckets.
@@ -166,7 +176,8 @@ run(tree, out_early, "--end-early", "icp_bucket", "--reason", "again", expect=2)
 out3 = WORK / "out3"
 (BENCH / "run_icp").write_text("#!/bin/sh\nexit 3\n")
 proc = subprocess.run([str(SCRIPT), "--source", str(tree), "--out", str(out3), "--no-build"],
-                      capture_output=True, text=True, env=dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS)))
+                      capture_output=True, text=True,
+                      env=dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS), STAMP=head(tree)))
 check(proc.returncode == 1 and "icp_accuracy failed" in proc.stderr, f"failed step: {proc.returncode} {proc.stderr}")
 check(not (out3 / ".done" / "real_pairs").exists(), "steps after a failure ran")
 
@@ -202,7 +213,7 @@ check((reference / "reference_run_log.txt").read_text() == (out3 / "log.txt").re
 out4 = WORK / "out4"
 (BENCH / "run_icp").write_text(STAND_IN)
 CALLS.unlink()
-env = dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS))
+env = dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS), STAMP=head(tree))
 proc = subprocess.run([str(clone / "scripts" / SCRIPT.name), "--source", str(tree), "--out", str(out4), "--no-build",
                        "--steps", "icp_accuracy", "--from-pending"], capture_output=True, text=True, env=env)
 check(proc.returncode == 0 and (out4 / ".done" / "icp_accuracy").exists(), f"--from-pending: {proc.stderr}")
