@@ -17,7 +17,7 @@ function(nnb_run step)
 endfunction()
 
 # Every optional adapter off (read from their CMakeLists, so a new one is off too): what is under test is
-# the way in from outside, and each library compiled here again cost minutes (5.5 under the sanitizers).
+# the way in from outside, and each library compiled here a second time would add minutes.
 set(off "")
 file(GLOB adapter_lists "${SOURCE_DIR}/adapters/*/CMakeLists.txt")
 foreach(list_file ${adapter_lists})
