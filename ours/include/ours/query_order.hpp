@@ -38,6 +38,7 @@ inline std::uint32_t spread_bits_3(std::uint32_t v) { return detail::kSpread[v &
 struct QueryOrder {
   std::vector<std::uint64_t> keys;     ///< (Morton code << 32) | query index, sorted
   std::vector<std::uint64_t> scratch;  ///< the radix sort's other buffer
+  std::vector<std::uint32_t> counts;   ///< the radix sort's counts of a pass
   std::vector<std::uint32_t> order;    ///< query indices in Morton order
 };
 
@@ -59,15 +60,23 @@ inline std::uint32_t grid_cell(double x, double lo, double scale) {
 }
 
 
-/// Sorts keys by their upper 32 bits (30 used) in three stable passes of 10 bits.
-inline void radix_sort_codes(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch) {
+/// Sorts keys by the 30 bits above their lower 32 in stable passes over the keys. Each pass costs about
+/// the same whatever its width while its counts stay in cache: two passes of 15 bits for large batches
+/// (nearly half the time of three passes of 10 on 60,000 queries), three of 10 for small ones, whose
+/// time is then in clearing and summing 2^15 counts.
+inline void radix_sort_codes(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch,
+                             std::vector<std::uint32_t>& start) {
+  constexpr int kCodeBits = 30;
+  const int width = keys.size() >= (std::size_t(1) << 15) ? 15 : 10;
+  const std::uint64_t mask = (std::uint64_t(1) << width) - 1;
+  start.resize(std::size_t(1) << width);
   scratch.resize(keys.size());
-  for (int shift = 32; shift < 62; shift += 10) {
-    std::array<std::uint32_t, 1024> start{};
-    for (std::uint64_t key : keys) ++start[(key >> shift) & 1023u];
+  for (int shift = 32; shift < 32 + kCodeBits; shift += width) {
+    std::fill(start.begin(), start.end(), 0u);
+    for (std::uint64_t key : keys) ++start[(key >> shift) & mask];
     std::uint32_t sum = 0;
     for (auto& s : start) sum += std::exchange(s, sum);
-    for (std::uint64_t key : keys) scratch[start[(key >> shift) & 1023u]++] = key;
+    for (std::uint64_t key : keys) scratch[start[(key >> shift) & mask]++] = key;
     keys.swap(scratch);
   }
 }
@@ -92,7 +101,7 @@ inline void morton_order(const double* xyz, std::size_t n, QueryOrder& out) {
                                spread_bits_3(detail::grid_cell(q[2], lo[2], scale)) << 2;
     out.keys[i] = code << 32 | static_cast<std::uint32_t>(i);
   }
-  detail::radix_sort_codes(out.keys, out.scratch);
+  detail::radix_sort_codes(out.keys, out.scratch, out.counts);
   out.order.resize(n);
   for (std::size_t i = 0; i < n; ++i) out.order[i] = static_cast<std::uint32_t>(out.keys[i]);
 }
