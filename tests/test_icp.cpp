@@ -342,8 +342,9 @@ TEST_P(IcpRealPair, LandsWithinToleranceOfTheReference) {
   EXPECT_LT(error_deg, initial_deg);  // ICP must improve on its start
 }
 
-// Hinted search (the previous neighbours bound the next search) changes the speed, never the answer: the
-// same pose bit for bit, the same pairs and RMS at every iteration, on each real pair with ours_kdtree.
+// Hinted search (the previous neighbours bound the next search, or prove it from ours' neighbour graph)
+// changes the speed, never the answer: the same pose bit for bit, the same pairs and RMS at every
+// iteration, on each real pair, with each way ours uses hints.
 TEST(IcpHints, SamePoseBitForBitWithAndWithoutHints) {
   NNB_SKIP_WITHOUT_REAL_DATA();
   const ds::DataOptions data;
@@ -352,20 +353,23 @@ TEST(IcpHints, SamePoseBitForBitWithAndWithoutHints) {
     const Cloud full_query = ds::load_pair_scan(pair, ds::Role::query, data).points;
     Cloud query(3, full_query.cols() / 4);
     for (Eigen::Index i = 0; i < query.cols(); ++i) query.col(i) = full_query.col(4 * i);
-    icp::Options o;
-    o.initial_pose = ds::load_pair_pose(pair, ds::PoseKind::initial, data).value_or(Eigen::Matrix4d::Identity());
-    o.max_dist = {0.5, 0.8, 0.1};
-    o.max_iterations = 30;
-    auto index = nnb::make_adapter("ours_kdtree");
-    ASSERT_TRUE(index->info().uses_hints);
-    const icp::Result hinted = register_clouds(*index, model, query, o);
-    o.use_hints = false;
-    const icp::Result plain = register_clouds(*index, model, query, o);
-    EXPECT_EQ(hinted.pose, plain.pose) << pair.name << "\n" << describe(hinted.pose) << "\nvs\n" << describe(plain.pose);
-    ASSERT_EQ(hinted.per_iteration.size(), plain.per_iteration.size()) << pair.name;
-    for (std::size_t i = 0; i < plain.per_iteration.size(); ++i) {
-      EXPECT_EQ(hinted.per_iteration[i].correspondences, plain.per_iteration[i].correspondences) << pair.name << " " << i;
-      EXPECT_EQ(hinted.per_iteration[i].rms_m, plain.per_iteration[i].rms_m) << pair.name << " " << i;
+    for (const auto& [adapter, hints] : {std::pair{"ours_kdtree", "bound"}, {"ours_kdtree", "graph"}, {"ours_octree", "graph"}}) {
+      SCOPED_TRACE(std::string(adapter) + " hints=" + hints);
+      icp::Options o;
+      o.initial_pose = ds::load_pair_pose(pair, ds::PoseKind::initial, data).value_or(Eigen::Matrix4d::Identity());
+      o.max_dist = {0.5, 0.8, 0.1};
+      o.max_iterations = 30;
+      auto index = nnb::make_adapter(adapter, {{"hints", hints}});
+      ASSERT_TRUE(index->info().uses_hints);
+      const icp::Result hinted = register_clouds(*index, model, query, o);
+      o.use_hints = false;
+      const icp::Result plain = register_clouds(*index, model, query, o);
+      EXPECT_EQ(hinted.pose, plain.pose) << pair.name << "\n" << describe(hinted.pose) << "\nvs\n" << describe(plain.pose);
+      ASSERT_EQ(hinted.per_iteration.size(), plain.per_iteration.size()) << pair.name;
+      for (std::size_t i = 0; i < plain.per_iteration.size(); ++i) {
+        EXPECT_EQ(hinted.per_iteration[i].correspondences, plain.per_iteration[i].correspondences) << pair.name << " " << i;
+        EXPECT_EQ(hinted.per_iteration[i].rms_m, plain.per_iteration[i].rms_m) << pair.name << " " << i;
+      }
     }
   }
 }

@@ -4,6 +4,7 @@
 #include "nnb/datasets/synthetic.hpp"
 #include "nnb/registry.hpp"
 #include "ours/kdtree.hpp"
+#include "ours/neighbour_graph.hpp"
 #include "ours/octree.hpp"
 #include "ours/query_order.hpp"
 
@@ -660,6 +661,121 @@ TEST(OursAdapters, EveryQueryOrderGivesBruteForcesRows) {
           ASSERT_EQ("", exact_mismatch(model, queries, expected[o][2], got, true)) << "knn";
           index->ranged_hinted(queries, 0.5, hints, got);
           ASSERT_EQ("", exact_mismatch(model, queries, expected[o][3], got, true)) << "hinted";
+        }
+      }
+    }
+  }
+}
+
+// ---------- neighbour graph (hints=graph) ----------
+
+// The graph of model, its rows made from brute force's k-NN.
+ours::NeighbourGraph graph_of(const Cloud& model) {
+  auto brute = nnb::make_adapter("brute_force");
+  brute->build(model);
+  Neighbours rows;
+  brute->knn(model, ours::NeighbourGraph::kNeighboursAsked, rows);
+  ours::NeighbourGraph graph;
+  graph.reset(model.data(), static_cast<std::size_t>(model.cols()));
+  for (std::size_t i = 0; i < rows.n_queries(); ++i) {
+    graph.set(static_cast<std::uint32_t>(i), rows.indices.data() + rows.offsets[i], rows.sq_dists.data() + rows.offsets[i],
+              rows.count(i));
+  }
+  return graph;
+}
+
+// Whatever the graph proves is brute force's answer: the same nearest point (a proof leaves no tie), the
+// same distance to the bit, nothing where brute force finds nothing within the limit. Queries lie at every
+// scale of distance from their hint, which is their source point or a random one; returns how many of
+// those within `near_m` of their source were proven.
+std::size_t check_graph_against_brute_force(const Cloud& model, double near_m) {
+  const ours::NeighbourGraph graph = graph_of(model);
+  auto brute = nnb::make_adapter("brute_force");
+  brute->build(model);
+  std::mt19937_64 rng(23);
+  std::uniform_int_distribution<Eigen::Index> pick(0, model.cols() - 1);
+  std::normal_distribution<double> jitter(0, 1);
+  const std::array<double, 5> scales_m{0.0, 0.1 * near_m, near_m, 10 * near_m, 1000 * near_m};
+  const Eigen::Index n = 2000;
+  Cloud queries(3, n);
+  std::vector<std::uint32_t> hints(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::Index source = pick(rng);
+    queries.col(i) = model.col(source) + scales_m[static_cast<std::size_t>(i) % scales_m.size()] *
+                                              Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng));
+    hints[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(i % 7 == 6 ? pick(rng) : source);
+  }
+  std::size_t proven_near = 0;
+  for (const double limit_m : {std::numeric_limits<double>::infinity(), near_m}) {
+    Neighbours expected;
+    if (std::isinf(limit_m)) brute->knn(queries, 1, expected);
+    else brute->ranged(queries, 1, limit_m, expected);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const auto q = static_cast<std::size_t>(i);
+      std::uint32_t index = 0;
+      double sq_m2 = 0;
+      const auto answer = graph.nearest(queries.col(i).data(), hints[q], limit_m * limit_m, index, sq_m2);
+      if (answer == ours::NeighbourGraph::Answer::unproven) continue;
+      if (answer == ours::NeighbourGraph::Answer::none_within) {
+        EXPECT_EQ(expected.count(q), 0u) << "query " << i << " has a neighbour within " << limit_m << " m";
+        continue;
+      }
+      EXPECT_EQ(expected.count(q), 1u) << "query " << i;
+      if (expected.count(q) != 1) continue;
+      EXPECT_EQ(sq_m2, expected.sq_dists[expected.offsets[q]]) << "query " << i;
+      EXPECT_EQ(index, expected.indices[expected.offsets[q]]) << "query " << i;
+      const bool near = (queries.col(i) - model.col(hints[q])).norm() <= near_m;
+      proven_near += std::isinf(limit_m) && near && i % 7 != 6;
+    }
+  }
+  return proven_near;
+}
+
+TEST(NeighbourGraph, ProvesOnlyBruteForcesAnswers) {
+  // Point spacing on the 3000-point sphere: about 0.04 m.
+  EXPECT_GT(check_graph_against_brute_force(sphere(3000), 0.004), 500u) << "queries close to their hint are proven";
+  check_graph_against_brute_force(with_duplicates(3000), 0.05);  // ties everywhere: left to the tree
+  check_graph_against_brute_force(flat(3000), 0.004);
+  check_graph_against_brute_force(collinear(3000), 0.001);
+  check_graph_against_brute_force(shifted(sphere(3000), 1e-6, 0.3), 4e-9);
+  check_graph_against_brute_force(shifted(sphere(3000), 1.0, 1e6), 0.004);
+  check_graph_against_brute_force(sphere(5), 0.1);  // fewer points than a row asks for: the whole model
+  check_graph_against_brute_force(sphere(1), 0.1);
+}
+
+// hints=graph answers exactly as the plain search, row for row (indices too), on one thread and on two
+// (the graph is made by the first hinted batch, once, whichever thread gets there).
+TEST(OursAdapters, GraphHintsGiveThePlainRows) {
+  for (const Cloud& model : {sphere(6000), with_duplicates(6000)}) {
+    const Cloud queries = in_scan_order(queries_for(model, 1.5, 5000));
+    auto brute = nnb::make_adapter("brute_force");
+    brute->build(model);
+    Neighbours nearest;
+    brute->knn(queries, 1, nearest);
+    std::mt19937_64 rng(29);
+    std::uniform_int_distribution<nnb::PointIndex> pick(0, static_cast<nnb::PointIndex>(model.cols() - 1));
+    std::vector<nnb::PointIndex> hints(static_cast<std::size_t>(queries.cols()));
+    for (std::size_t q = 0; q < hints.size(); ++q) {
+      hints[q] = q % 5 == 0 ? nnb::kNoHint : q % 5 == 1 ? pick(rng) : nearest.indices[nearest.offsets[q]];
+    }
+    for (const char* adapter : {"ours_kdtree", "ours_octree"}) {
+      for (const char* scalar : {"double", "float"}) {
+        for (const int threads : {1, 2}) {
+          SCOPED_TRACE(std::string(adapter) + " " + scalar + " threads " + std::to_string(threads));
+          auto index = nnb::make_adapter(adapter, {{"scalar", scalar}, {"hints", "graph"}});
+          index->set_threads(threads);
+          index->build(model);
+          ASSERT_TRUE(index->info().uses_hints);
+          for (const double max_dist_m : {0.01, 0.3, 5.0}) {
+            Neighbours plain, hinted, expected;
+            index->ranged(queries, 1, max_dist_m, plain);
+            index->ranged_hinted(queries, max_dist_m, hints, hinted);
+            brute->ranged(queries, 1, max_dist_m, expected);
+            ASSERT_EQ("", exact_mismatch(model, queries, expected, hinted, true)) << max_dist_m << " m";
+            EXPECT_TRUE(hinted.offsets == plain.offsets && hinted.indices == plain.indices &&
+                        hinted.sq_dists == plain.sq_dists)
+                << "hints changed the rows at " << max_dist_m << " m";
+          }
         }
       }
     }

@@ -29,8 +29,6 @@ class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
     ParamReader reader(info.name, params);
     reader.get_bucket("bucket_size", kDefaultBucketSize, 1, 1 << 20, 4, 128);
     info = shared_info(std::move(info), reader);
-    // Its double search computes distances as sq_dist_m2 does, so a hint's distance is a safe bound.
-    info.uses_hints = true;
     info.builds_on_threads = true;
     return info;
   }

@@ -5,12 +5,15 @@
 // return a conservative superset; its distances are recomputed in double, filtered and truncated.
 #include "nnb/search_index.hpp"
 #include "ours/collector.hpp"
+#include "ours/neighbour_graph.hpp"
 #include "ours/query_order.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -157,8 +160,10 @@ class OursIndex : public SearchIndex {
     info.ranged = Strategy::native;
     info.scalar = reader.get_choice("scalar", "double", {"float", "double"});
     reader.get_choice("order", "auto", {"auto", "caller", "morton"});
+    reader.get_choice("hints", "bound", {"bound", "graph"});
     info.params = reader.finish();
     info.bucket = reader.bucket();
+    info.uses_hints = true;
     info.notes = info.scalar == "float" ? "float search widened by its rounding bound, refined in double"
                                         : "distances computed as sq_dist_m2, bit-exact";
     return info;
@@ -167,7 +172,8 @@ class OursIndex : public SearchIndex {
   explicit OursIndex(AdapterInfo info)
       : SearchIndex(std::move(info)),
         use_float_(this->info().params.at("scalar") == "float"),
-        order_(order_named(this->info().params.at("order"))) {}
+        order_(order_named(this->info().params.at("order"))),
+        graph_hints_(this->info().params.at("hints") == "graph") {}
 
   std::size_t index_bytes() const override {
     return use_float_ ? float_.node_bytes() + float_.index_bytes() + float_.point_copy_bytes()
@@ -179,6 +185,7 @@ class OursIndex : public SearchIndex {
   template <class Build>
   void build_tree(const Cloud& model, Build&& build) {
     model_ = &model;
+    graph_ = std::make_unique<LazyGraph>();
     const auto n = static_cast<std::size_t>(model.cols());
     if (use_float_) build(float_, model.data(), n);
     else build(double_, model.data(), n);
@@ -195,18 +202,36 @@ class OursIndex : public SearchIndex {
     else ours_rows::ranged<double>(double_, *model_, queries, k, limit_sq_m2, same, order_, out);
   }
 
-  // The hint's squared distance (computed as sq_dist_m2, as the double tree computes it; a float tree
-  // widens any limit by its rounding bound) bounds the search from the start.
+  // hints=bound: each query's search is bounded from the start by its hint's squared distance (computed as
+  // sq_dist_m2, as the double tree computes it; a float tree widens any limit by its rounding bound).
+  // hints=graph: a query whose hint's row in the neighbour graph proves its nearest point
+  // (ours/neighbour_graph.hpp) is answered from it, the others as with hints=bound.
   void do_ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
                         Neighbours& out) const override {
     const double limit_sq_m2 = max_dist_m * max_dist_m;
-    const auto hinted = [&](std::size_t q) {
-      if (hints[q] == kNoHint) return limit_sq_m2;
-      const double sq = sq_dist_m2(queries.col(static_cast<Eigen::Index>(q)).data(), model_->col(hints[q]).data());
-      return std::min(sq, limit_sq_m2);
-    };
-    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, 1, limit_sq_m2, hinted, order_, out);
-    else ours_rows::ranged<double>(double_, *model_, queries, 1, limit_sq_m2, hinted, order_, out);
+    if (!graph_hints_) return search_bounded_by_hints(queries, limit_sq_m2, hints, out);
+    const ours::NeighbourGraph& graph = neighbour_graph();
+    HintScratch& s = hint_scratch();
+    const auto n = static_cast<std::size_t>(queries.cols());
+    s.answers.resize(n);
+    s.unproven.clear();
+    s.unproven_hints.clear();
+    for (std::size_t q = 0; q < n; ++q) {
+      HintAnswer& a = s.answers[q];
+      a.kind = hints[q] == kNoHint ? ours::NeighbourGraph::Answer::unproven
+                                   : graph.nearest(queries.col(static_cast<Eigen::Index>(q)).data(), hints[q],
+                                                   limit_sq_m2, a.index, a.sq_m2);
+      if (a.kind != ours::NeighbourGraph::Answer::unproven) continue;
+      s.unproven.push_back(static_cast<PointIndex>(q));
+      s.unproven_hints.push_back(hints[q]);
+    }
+    s.tree_queries.resize(3, static_cast<Eigen::Index>(s.unproven.size()));
+    for (std::size_t u = 0; u < s.unproven.size(); ++u) {
+      s.tree_queries.col(static_cast<Eigen::Index>(u)) = queries.col(static_cast<Eigen::Index>(s.unproven[u]));
+    }
+    search_bounded_by_hints(s.tree_queries, limit_sq_m2, s.unproven_hints, s.tree_rows);
+    merge_hinted_rows(s, out);
+    s.release_if_large();
   }
 
   // On threads, the slices are runs of the Morton order unless the batch follows a scan (or order=caller):
@@ -229,9 +254,79 @@ class OursIndex : public SearchIndex {
   }
 
  private:
+  struct HintAnswer {
+    ours::NeighbourGraph::Answer kind = ours::NeighbourGraph::Answer::unproven;
+    PointIndex index = 0;
+    double sq_m2 = 0.0;
+  };
+  /// A thread's memory for hinted batches, kept between them (see MortonScratch).
+  struct HintScratch {
+    std::vector<HintAnswer> answers;
+    std::vector<PointIndex> unproven;  ///< the queries left to the tree, in the caller's order
+    std::vector<PointIndex> unproven_hints;
+    Cloud tree_queries;
+    Neighbours tree_rows;
+    void release_if_large() {
+      if (answers.size() > (std::size_t(1) << 20)) *this = HintScratch{};
+    }
+  };
+  static HintScratch& hint_scratch() {
+    thread_local HintScratch scratch;
+    return scratch;
+  }
+
+  void search_bounded_by_hints(const Cloud& queries, double limit_sq_m2, const std::vector<PointIndex>& hints,
+                               Neighbours& out) const {
+    const auto hinted = [&](std::size_t q) {
+      if (hints[q] == kNoHint) return limit_sq_m2;
+      const double sq = sq_dist_m2(queries.col(static_cast<Eigen::Index>(q)).data(), model_->col(hints[q]).data());
+      return std::min(sq, limit_sq_m2);
+    };
+    if (use_float_) ours_rows::ranged<float>(float_, *model_, queries, 1, limit_sq_m2, hinted, order_, out);
+    else ours_rows::ranged<double>(double_, *model_, queries, 1, limit_sq_m2, hinted, order_, out);
+  }
+
+  // The rows in the caller's order: each query's proven answer, or its row from the tree.
+  static void merge_hinted_rows(const HintScratch& s, Neighbours& out) {
+    out.reset(s.answers.size(), s.answers.size());
+    std::size_t u = 0;
+    for (const HintAnswer& a : s.answers) {
+      if (a.kind == ours::NeighbourGraph::Answer::nearest) {
+        out.push(a.index, a.sq_m2);
+      } else if (a.kind == ours::NeighbourGraph::Answer::unproven) {
+        for (std::size_t e = s.tree_rows.offsets[u]; e < s.tree_rows.offsets[u + 1]; ++e) {
+          out.push(s.tree_rows.indices[e], s.tree_rows.sq_dists[e]);
+        }
+        ++u;
+      }
+      out.end_query();
+    }
+  }
+
+  /// The model's neighbour graph, made by the first hinted batch after a build (from the model's own
+  /// k-NN, on the index's threads), so that searches without hints never pay for it.
+  struct LazyGraph {
+    std::once_flag made;
+    ours::NeighbourGraph graph;
+  };
+  const ours::NeighbourGraph& neighbour_graph() const {
+    std::call_once(graph_->made, [this] {
+      Neighbours rows;
+      knn(*model_, ours::NeighbourGraph::kNeighboursAsked, rows);
+      graph_->graph.reset(model_->data(), static_cast<std::size_t>(model_->cols()));
+      for (std::size_t i = 0; i < rows.n_queries(); ++i) {
+        graph_->graph.set(static_cast<std::uint32_t>(i), rows.indices.data() + rows.offsets[i],
+                          rows.sq_dists.data() + rows.offsets[i], rows.count(i));
+      }
+    });
+    return graph_->graph;
+  }
+
   const Cloud* model_ = nullptr;
+  std::unique_ptr<LazyGraph> graph_;
   bool use_float_ = false;
   Order order_ = Order::automatic;
+  bool graph_hints_ = false;
   Tree<float> float_;
   Tree<double> double_;
 };

@@ -18,12 +18,15 @@ struct ThreadSubject {
 };
 
 /// Variants worth their own subject: ours answering every batch in Morton order, which a small random
-/// batch on a small tree does not always choose (the threaded slicing then follows that order too).
+/// batch on a small tree does not always choose (the threaded slicing then follows that order too), and
+/// ours answering hinted batches from its neighbour graph, which the first of the threads makes.
 inline void add_variants(std::vector<ThreadSubject>& subjects) {
   const std::size_t n = subjects.size();
   for (std::size_t i = 0; i < n; ++i) {
-    if (subjects[i].name.rfind("ours_", 0) == 0)
+    if (subjects[i].name.rfind("ours_", 0) == 0) {
       subjects.push_back({subjects[i].name + "_order_morton", subjects[i].make, {{"order", "morton"}}});
+      subjects.push_back({subjects[i].name + "_hints_graph", subjects[i].make, {{"hints", "graph"}}});
+    }
   }
 }
 
