@@ -90,6 +90,7 @@ icp::Options options_of(const icp::Settings& s, const Eigen::Matrix4d& initial) 
   o.min_translation_step_m = s.min_translation_step_m;
   o.min_rotation_step_rad = s.min_rotation_step_rad;
   o.use_hints = s.hints;
+  o.track_neighbours = s.track;
   return o;
 }
 
@@ -472,6 +473,8 @@ void add_flags(CLI::App& app, ExperimentFlags& experiment, SingleRun& one) {
   app.add_option("--query-stride", s.query_stride, "use every N-th query point")->capture_default_str();
   app.add_flag_callback("--no-hints", [&s] { s.hints = false; },
                         "search without the previous neighbours as hints (adapters that use hints; same answers, slower)");
+  app.add_flag("--track", s.track,
+               "keep each query's neighbour while it moves less than its margin, search the others for two (any adapter; same answers)");
   app.add_option("--threads", experiment.threads,
                  "threads each search may use (default: the experiment's, else 1; adapters that cannot share an index "
                  "use one, and each record says how many it used)")

@@ -43,7 +43,7 @@ mkdir -p "$out" && out=$(cd "$out" && pwd)
 case $out/ in "$src"/*) die "--out $out lies inside the source tree $src: the tree would not stay clean" ;; esac
 bench=${NNB_BENCH_DIR:-build/release/bench}
 
-steps=(micro_nns registry checks quick scale icp_accuracy real_pairs icp_hints icp_no_hints icp_bucket icp_real paper_grid
+steps=(micro_nns registry checks quick scale icp_accuracy real_pairs icp_hints icp_no_hints icp_track icp_bucket icp_real paper_grid
        paper_grid_spatialindex real)
 # The approximate adapter counted against brute force (results/reference/checks), model:query.
 check_pairs=(hollow_sphere:hollow_cube hollow_cube:hollow_sphere filled_cube:hollow_sphere)
@@ -53,7 +53,7 @@ output_of() {
     micro_nns) echo micro_nns/micro_nns.json ;;
     registry) echo registry/adapters.json ;;
     checks) echo "checks/pcl_octree_approx_${check_pairs[-1]/:/_}.json" ;;  # the last of its files
-    icp_hints | icp_no_hints) echo "hints/$1.json" ;;
+    icp_hints | icp_no_hints | icp_track) echo "hints/$1.json" ;;
     quick | scale | paper_grid | paper_grid_spatialindex | real) echo "sweep_$1.json" ;;
     *) echo "$1.json" ;;
   esac
@@ -84,7 +84,7 @@ command_of() {
     registry) cmd=("$bench/nns_query" --list --json) ;;
     checks) cmd=("$bench/nns_query" --adapter pcl_octree_approx --search knn --k 1 --points 100000 --check
                  --out -) ;;  # run_checks adds each pair's --model, --query and --stats, and drops the answers
-    icp_hints | icp_no_hints) cmd=("$bench/run_icp" --experiment "$1" --out "$o") ;;
+    icp_hints | icp_no_hints | icp_track) cmd=("$bench/run_icp" --experiment "$1" --out "$o") ;;
     quick | scale) cmd=("$bench/run_sweep" --experiment "$1" --out "$o") ;;
     icp_accuracy) cmd=("$bench/run_icp" --experiment icp_accuracy --out "$o") ;;
     real_pairs) cmd=("$bench/nns_query" --describe-real-pairs "$o") ;;

@@ -374,6 +374,69 @@ TEST(IcpHints, SamePoseBitForBitWithAndWithoutHints) {
   }
 }
 
+// Tracked search gives the rows the plain search gives (indices too), call after call, as queries move by
+// steps from tiny to large, under a fixed and a shrinking limit, on a cloud with exact duplicates (ties);
+// and it proves most small moves without a search.
+TEST(IcpTrack, RowsAreThePlainSearchsAsQueriesMove) {
+  Cloud model = ds::make_shape(ds::Shape::hollow_sphere, 4000, 5);
+  for (Eigen::Index i = 0; i < 400; ++i) model.col(4000 - 1 - i) = model.col(i);  // 400 duplicated points
+  for (const char* adapter : {"brute_force", "ours_kdtree", "ours_octree"}) {
+    SCOPED_TRACE(adapter);
+    auto index = nnb::make_adapter(adapter);
+    index->build(model);
+    Cloud queries = ds::make_shape(ds::Shape::hollow_cube, 3000, 6) * 0.9;
+    std::mt19937_64 rng(41);
+    std::size_t proven_small = 0;
+    for (const bool shrink : {false, true}) {
+      icp::NeighbourTrack track;
+      for (int call = 0; call < 12; ++call) {
+        const double step_m = call % 4 == 3 ? 0.05 : 1e-4;
+        const double max_dist_m = shrink ? 0.3 * std::pow(0.8, call) : 0.1;
+        queries = apply(random_rigid(rng, step_m, step_m), queries);
+        nnb::Neighbours tracked, plain;
+        track.ranged(*index, model, queries, max_dist_m, tracked);
+        index->ranged(queries, 1, max_dist_m, plain);
+        ASSERT_EQ(tracked.offsets, plain.offsets) << "call " << call;
+        ASSERT_EQ(tracked.indices, plain.indices) << "call " << call;
+        ASSERT_EQ(tracked.sq_dists, plain.sq_dists) << "call " << call;
+        if (call > 0 && step_m < 1e-3) proven_small += track.proven();
+      }
+    }
+    EXPECT_GT(proven_small, 14u * 3000u / 2) << "small moves should mostly be proven without a search";
+  }
+}
+
+// ICP with tracked neighbours: the same pose bit for bit, the same pairs and RMS at every iteration, on each
+// real pair, with our k-d tree and Debian's nanoflann.
+TEST(IcpTrack, SamePoseBitForBitAsWithout) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
+  const ds::DataOptions data;
+  for (const auto& pair : ds::real_pairs()) {
+    const Cloud model = ds::load_pair_scan(pair, ds::Role::model, data).points;
+    const Cloud full_query = ds::load_pair_scan(pair, ds::Role::query, data).points;
+    Cloud query(3, full_query.cols() / 4);
+    for (Eigen::Index i = 0; i < query.cols(); ++i) query.col(i) = full_query.col(4 * i);
+    for (const std::string& adapter : {std::string("ours_kdtree"), fast_exact_adapter()}) {
+      SCOPED_TRACE(adapter);
+      icp::Options o;
+      o.initial_pose = ds::load_pair_pose(pair, ds::PoseKind::initial, data).value_or(Eigen::Matrix4d::Identity());
+      o.max_dist = {0.5, 0.8, 0.1};
+      o.max_iterations = 30;
+      o.use_hints = false;
+      auto index = nnb::make_adapter(adapter);
+      const icp::Result plain = register_clouds(*index, model, query, o);
+      o.track_neighbours = true;
+      const icp::Result tracked = register_clouds(*index, model, query, o);
+      EXPECT_EQ(tracked.pose, plain.pose) << pair.name << "\n" << describe(tracked.pose) << "\nvs\n" << describe(plain.pose);
+      ASSERT_EQ(tracked.per_iteration.size(), plain.per_iteration.size()) << pair.name;
+      for (std::size_t i = 0; i < plain.per_iteration.size(); ++i) {
+        EXPECT_EQ(tracked.per_iteration[i].correspondences, plain.per_iteration[i].correspondences) << pair.name << " " << i;
+        EXPECT_EQ(tracked.per_iteration[i].rms_m, plain.per_iteration[i].rms_m) << pair.name << " " << i;
+      }
+    }
+  }
+}
+
 // Tolerances: measured errors (nanoflann, every 8th point) were SICK 0.76 cm / 0.19 deg, Velodyne
 // 0.86 cm / 0.35 deg (relative.txt is GICP's answer; point-to-point ICP sits ~0.35 deg from it),
 // bunny 0.24 mm / 0.40 deg (from identity, 45 deg away).

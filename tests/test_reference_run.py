@@ -13,7 +13,7 @@ from pathlib import Path
 
 SCRIPT, WORK = Path(sys.argv[1]).resolve(), Path(sys.argv[2]).resolve()
 STEPS = ["micro_nns", "registry", "checks", "quick", "scale", "icp_accuracy", "real_pairs", "icp_hints", "icp_no_hints",
-         "icp_bucket", "icp_real", "paper_grid", "paper_grid_spatialindex", "real"]
+         "icp_track", "icp_bucket", "icp_real", "paper_grid", "paper_grid_spatialindex", "real"]
 
 STAND_IN = r'''#!/usr/bin/env python3
 import os, sys, time
@@ -122,6 +122,8 @@ check((out / "registry" / "adapters.json").read_text().startswith("brute_force")
 check(len(list((out / "checks").glob("pcl_octree_approx_*.json"))) == 3, "not three checks of the approximate octree")
 check(any("--experiment icp_no_hints --out " + str(out / "hints" / "icp_no_hints.json") in c for c in ran),
       f"no ICP run without hints: {ran}")
+check(any("--experiment icp_track --out " + str(out / "hints" / "icp_track.json") in c for c in ran),
+      f"no ICP run with tracked neighbours: {ran}")
 for step in STEPS:
     check((out / ".done" / step).exists(), f"{step} not marked done")
 grid = next(c for c in ran if "--datasets" in c and "ours_kdtree" in c)

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace nnb::icp {
@@ -225,6 +226,96 @@ double rotation_angle_rad(const Eigen::Matrix4d& transform) {
   return std::atan2(0.5 * axis_sin.norm(), 0.5 * (r.trace() - 1.0));
 }
 
+void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const Cloud& queries, double max_dist_m,
+                            Neighbours& pairs) {
+  const auto n = static_cast<std::size_t>(queries.cols());
+  const double limit_sq_m2 = max_dist_m * max_dist_m;
+  const double keep = 1.0 - std::ldexp(1.0, -20);
+  const bool have_state = nearest_.size() == n;
+  if (!have_state) {
+    at_ = queries;
+    nearest_.assign(n, kNoHint);
+    clear_m_.assign(n, 0.0);  // nothing proven: every query is searched
+  }
+  // Proven answers go straight into pairs; searched queries leave a gap filled below.
+  searched_.clear();
+  std::vector<double> proven_sq(n, -1.0);
+  for (std::size_t q = 0; q < n; ++q) {
+    const double* p = queries.data() + 3 * q;
+    const double delta_m = std::sqrt(sq_dist_m2(p, at_.data() + 3 * q));
+    const double clear_m = clear_m_[q] * keep;
+    if (nearest_[q] == kNoHint) {
+      if (clear_m - delta_m > max_dist_m) proven_sq[q] = std::numeric_limits<double>::infinity();
+    } else {
+      const double sq = sq_dist_m2(p, model.data() + 3 * static_cast<std::size_t>(nearest_[q]));
+      if (std::sqrt(sq) + delta_m < clear_m) proven_sq[q] = sq;
+    }
+    if (proven_sq[q] < 0.0) searched_.push_back(static_cast<PointIndex>(q));
+  }
+  proven_ = n - searched_.size();
+  searched_queries_.resize(3, static_cast<Eigen::Index>(searched_.size()));
+  for (std::size_t s = 0; s < searched_.size(); ++s) {
+    searched_queries_.col(static_cast<Eigen::Index>(s)) = queries.col(static_cast<Eigen::Index>(searched_[s]));
+  }
+  if (searched_.empty()) two_.reset();
+  else index.ranged(searched_queries_, 2, max_dist_m, two_);
+  far_clear_of_none(index);
+  nearest_of_tied(index, max_dist_m);
+  pairs.reset(n, n);
+  std::size_t s = 0;
+  for (std::size_t q = 0; q < n; ++q) {
+    if (s < searched_.size() && searched_[s] == q) {
+      const std::size_t at = two_.offsets[s];
+      const std::size_t found = two_.count(s);
+      const PointIndex nearest = found > 0 ? tied_nearest_[s] != kNoHint ? tied_nearest_[s] : two_.indices[at] : kNoHint;
+      if (found > 0) pairs.push(nearest, two_.sq_dists[at]);
+      at_.col(static_cast<Eigen::Index>(q)) = queries.col(static_cast<Eigen::Index>(q));
+      nearest_[q] = nearest;
+      clear_m_[q] = found > 1 ? std::sqrt(two_.sq_dists[at + 1]) : found == 1 ? max_dist_m : far_clear_m_[s];
+      ++s;
+    } else if (proven_sq[q] <= limit_sq_m2) {
+      pairs.push(nearest_[q], proven_sq[q]);
+    }
+    pairs.end_query();
+  }
+}
+
+void NeighbourTrack::far_clear_of_none(const SearchIndex& index) {
+  // A query with nothing within the limit searches its whole ball every time; the distance of its nearest
+  // point, however far, lets the next calls prove that nothing came within the limit.
+  std::vector<PointIndex> none;
+  for (std::size_t s = 0; s < searched_.size(); ++s) {
+    if (two_.count(s) == 0) none.push_back(static_cast<PointIndex>(s));
+  }
+  far_clear_m_.assign(searched_.size(), 0.0);
+  if (none.empty()) return;
+  Cloud far(3, static_cast<Eigen::Index>(none.size()));
+  for (std::size_t u = 0; u < none.size(); ++u) far.col(static_cast<Eigen::Index>(u)) = searched_queries_.col(none[u]);
+  Neighbours nearest;
+  index.knn(far, 1, nearest);
+  for (std::size_t u = 0; u < none.size(); ++u) {
+    far_clear_m_[none[u]] = nearest.count(u) > 0 ? std::sqrt(nearest.sq_dists[nearest.offsets[u]]) : 0.0;
+  }
+}
+
+void NeighbourTrack::nearest_of_tied(const SearchIndex& index, double max_dist_m) {
+  // Two nearest at the same distance: which one the plain search returns is the adapter's choice, so it
+  // is asked for (a tie leaves the query's margin at zero: it is searched again next time).
+  std::vector<PointIndex> tied;
+  for (std::size_t s = 0; s < searched_.size(); ++s) {
+    if (two_.count(s) == 2 && two_.sq_dists[two_.offsets[s]] == two_.sq_dists[two_.offsets[s] + 1]) {
+      tied.push_back(static_cast<PointIndex>(s));
+    }
+  }
+  tied_nearest_.assign(searched_.size(), kNoHint);
+  if (tied.empty()) return;
+  Cloud ask(3, static_cast<Eigen::Index>(tied.size()));
+  for (std::size_t u = 0; u < tied.size(); ++u) ask.col(static_cast<Eigen::Index>(u)) = searched_queries_.col(tied[u]);
+  Neighbours one;
+  index.ranged(ask, 1, max_dist_m, one);
+  for (std::size_t u = 0; u < tied.size(); ++u) tied_nearest_[tied[u]] = one.indices[one.offsets[u]];
+}
+
 namespace {
 
 // Each query's neighbour in the last search (kNoHint where it had none): the next search's hints.
@@ -284,6 +375,7 @@ Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Clo
   Cloud moved;
   const bool hinted = options.use_hints && index.info().uses_hints;
   std::vector<PointIndex> hints;
+  NeighbourTrack track;
   auto t0 = Clock::now();
   move_queries(query, result.pose, moved, nullptr, model);
   result.estimate_seconds += seconds_since(t0);
@@ -292,7 +384,9 @@ Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Clo
     it.max_dist_m = options.max_dist.at(i);
 
     t0 = Clock::now();
-    if (hinted && i > 0) {
+    if (options.track_neighbours) {
+      track.ranged(index, model, moved, it.max_dist_m, pairs);
+    } else if (hinted && i > 0) {
       previous_neighbours(pairs, hints);
       index.ranged_hinted(moved, it.max_dist_m, hints, pairs);
     } else {

@@ -36,6 +36,9 @@ struct Options {
   std::size_t min_correspondences = 3;  ///< fewer pairs than this ends the run as a failure
   /// Search with the previous iteration's neighbours as hints (adapters that use hints; same answers).
   bool use_hints = true;
+  /// Track each query's neighbour between iterations (NeighbourTrack): a query that has moved less than its
+  /// margin keeps it without a search; the others are searched for their two nearest (same answers).
+  bool track_neighbours = false;
 };
 
 struct Iteration {
@@ -62,6 +65,37 @@ struct Result {
   std::size_t final_correspondences() const {
     return per_iteration.empty() ? 0 : per_iteration.back().correspondences;
   }
+};
+
+/// Greenspan and Godin's ICP search, centred on the query: when a query's two nearest model points lay at
+/// distances a < b, every point but the nearest lay at least b away. After the query moves by delta, its
+/// old nearest is still its nearest whenever it lies nearer than b - delta, and the search can be skipped.
+/// Where none lay within the limit L, none lies within L' while delta < L - L'. The bounds keep a margin of
+/// 2^-20 of b, far above the rounding of the computed distances, so the answers are the search's.
+class NeighbourTrack {
+ public:
+  /// Fills pairs with each query's nearest model point within max_dist_m, as
+  /// index.ranged(queries, 1, max_dist_m, pairs) would: proven from the last call's state where the query
+  /// moved little enough, else searched (its two nearest, to set its state anew). The same queries, in the
+  /// same order, at every call.
+  void ranged(const SearchIndex& index, const Cloud& model, const Cloud& queries, double max_dist_m, Neighbours& pairs);
+  /// Queries answered without a search in the last call.
+  std::size_t proven() const { return proven_; }
+
+ private:
+  Cloud at_;                        ///< each query where its state was set
+  std::vector<PointIndex> nearest_; ///< its nearest model point there, or kNoHint
+  std::vector<double> clear_m_;     ///< every other model point lay farther than this from at_
+  /// Sets far_clear_m_ for the searched queries that found nothing within the limit: their nearest's distance.
+  void far_clear_of_none(const SearchIndex& index);
+  /// Sets tied_nearest_ for the searched queries whose two nearest tie: the plain search's choice.
+  void nearest_of_tied(const SearchIndex& index, double max_dist_m);
+  std::vector<PointIndex> tied_nearest_;
+  std::vector<PointIndex> searched_;
+  std::vector<double> far_clear_m_;
+  Cloud searched_queries_;
+  Neighbours two_;
+  std::size_t proven_ = 0;
 };
 
 /// Throws InputError unless options are usable (positive distances, factor in (0,1], a rigid initial pose).

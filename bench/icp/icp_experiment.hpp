@@ -17,6 +17,7 @@ struct Settings {
   double min_rotation_step_rad = 1e-6;
   std::size_t query_stride = 1;  ///< use every query_stride-th query point
   bool hints = true;             ///< search with the previous neighbours as hints (adapters that use them)
+  bool track = false;            ///< track each query's neighbour between iterations (icp::NeighbourTrack)
   int threads = 1;               ///< threads each search may use (SearchIndex::set_threads)
 };
 

@@ -69,6 +69,7 @@ ordered_json record_json(const Record& rec) {
   j["min_translation_step_m"] = rec.options.min_translation_step_m;
   j["min_rotation_step_rad"] = rec.options.min_rotation_step_rad;
   j["search_hints"] = rec.options.use_hints;
+  j["track_neighbours"] = rec.options.track_neighbours;
   j["initial_pose"] = matrix_rows(rec.options.initial_pose);
   j["final_pose"] = matrix_rows(res.pose);
   if (rec.reference) {
@@ -179,7 +180,7 @@ ordered_json settings_json(const Settings& s) {
   return {{"max_dist_m", s.max_dist.start_m}, {"max_dist_factor", s.max_dist.factor},
           {"max_dist_floor_m", s.max_dist.floor_m}, {"iterations", s.max_iterations},
           {"min_translation_step_m", s.min_translation_step_m}, {"min_rotation_step_rad", s.min_rotation_step_rad},
-          {"query_stride", s.query_stride}, {"hints", s.hints}, {"threads", s.threads}};
+          {"query_stride", s.query_stride}, {"hints", s.hints}, {"track", s.track}, {"threads", s.threads}};
 }
 
 }  // namespace
@@ -248,6 +249,7 @@ Settings parse_settings(const json& j, Settings s) {
     else if (key == "min_rotation_step_rad") s.min_rotation_step_rad = value.get<double>();
     else if (key == "query_stride") s.query_stride = bench::whole_number<std::size_t>(value, "query_stride");
     else if (key == "hints") s.hints = value.get<bool>();
+    else if (key == "track") s.track = value.get<bool>();
     else if (key == "threads") s.threads = bench::whole_number<int>(value, "threads");
     else throw InputError("unknown ICP setting '" + key + "'");
   }
