@@ -259,7 +259,7 @@ void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const 
   }
   if (searched_.empty()) two_.reset();
   else index.ranged(searched_queries_, 2, max_dist_m, two_);
-  far_clear_of_none(index);
+  far_clear_of_none(index, max_dist_m);
   nearest_of_tied(index, max_dist_m);
   pairs.reset(n, n);
   std::size_t s = 0;
@@ -280,9 +280,10 @@ void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const 
   }
 }
 
-void NeighbourTrack::far_clear_of_none(const SearchIndex& index) {
-  // A query with nothing within the limit searches its whole ball every time; the distance of its nearest
-  // point, however far, lets the next calls prove that nothing came within the limit.
+void NeighbourTrack::far_clear_of_none(const SearchIndex& index, double max_dist_m) {
+  // A query with nothing within the limit searches its whole ball every time; its nearest point's distance
+  // (or kFarLimits limits, when nothing lies that near: looking further costs more than it proves) lets the
+  // next calls prove that nothing came within the limit.
   std::vector<PointIndex> none;
   for (std::size_t s = 0; s < searched_.size(); ++s) {
     if (two_.count(s) == 0) none.push_back(static_cast<PointIndex>(s));
@@ -292,9 +293,10 @@ void NeighbourTrack::far_clear_of_none(const SearchIndex& index) {
   Cloud far(3, static_cast<Eigen::Index>(none.size()));
   for (std::size_t u = 0; u < none.size(); ++u) far.col(static_cast<Eigen::Index>(u)) = searched_queries_.col(none[u]);
   Neighbours nearest;
-  index.knn(far, 1, nearest);
+  const double far_m = kFarLimits * max_dist_m;
+  index.ranged(far, 1, far_m, nearest);
   for (std::size_t u = 0; u < none.size(); ++u) {
-    far_clear_m_[none[u]] = nearest.count(u) > 0 ? std::sqrt(nearest.sq_dists[nearest.offsets[u]]) : 0.0;
+    far_clear_m_[none[u]] = nearest.count(u) > 0 ? std::sqrt(nearest.sq_dists[nearest.offsets[u]]) : far_m;
   }
 }
 

@@ -86,11 +86,14 @@ class NeighbourTrack {
   Cloud at_;                        ///< each query where its state was set
   std::vector<PointIndex> nearest_; ///< its nearest model point there, or kNoHint
   std::vector<double> clear_m_;     ///< every other model point lay farther than this from at_
-  /// Sets far_clear_m_ for the searched queries that found nothing within the limit: their nearest's distance.
-  void far_clear_of_none(const SearchIndex& index);
+  /// Sets far_clear_m_ for the searched queries that found nothing within the limit: their nearest's distance,
+  /// up to kFarLimits times the limit.
+  void far_clear_of_none(const SearchIndex& index, double max_dist_m);
   /// Sets tied_nearest_ for the searched queries whose two nearest tie: the plain search's choice.
   void nearest_of_tied(const SearchIndex& index, double max_dist_m);
   std::vector<PointIndex> tied_nearest_;
+  /// How far beyond the limit (in limits) the nearest of a query with none within it is looked for.
+  static constexpr double kFarLimits = 2.0;
   std::vector<PointIndex> searched_;
   std::vector<double> far_clear_m_;
   Cloud searched_queries_;
