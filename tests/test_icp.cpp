@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <random>
 
@@ -342,36 +343,45 @@ TEST_P(IcpRealPair, LandsWithinToleranceOfTheReference) {
   EXPECT_LT(error_deg, initial_deg);  // ICP must improve on its start
 }
 
-// Hinted search (the previous neighbours bound the next search, or prove it from ours' neighbour graph)
-// changes the speed, never the answer: the same pose bit for bit, the same pairs and RMS at every
-// iteration, on each real pair, with each way ours uses hints.
-TEST(IcpHints, SamePoseBitForBitWithAndWithoutHints) {
-  NNB_SKIP_WITHOUT_REAL_DATA();
+// ICP on every real pair (every 4th query point) twice, with options changed by `faster` the second time:
+// the same pose bit for bit, the same pairs and RMS at every iteration.
+void expect_same_registrations(const std::vector<std::pair<std::string, nnb::Params>>& adapters,
+                               const std::function<void(icp::Options&)>& faster) {
   const ds::DataOptions data;
   for (const auto& pair : ds::real_pairs()) {
     const Cloud model = ds::load_pair_scan(pair, ds::Role::model, data).points;
     const Cloud full_query = ds::load_pair_scan(pair, ds::Role::query, data).points;
     Cloud query(3, full_query.cols() / 4);
     for (Eigen::Index i = 0; i < query.cols(); ++i) query.col(i) = full_query.col(4 * i);
-    for (const auto& [adapter, hints] : {std::pair{"ours_kdtree", "bound"}, {"ours_kdtree", "graph"}, {"ours_octree", "graph"}}) {
-      SCOPED_TRACE(std::string(adapter) + " hints=" + hints);
+    for (const auto& [adapter, params] : adapters) {
+      SCOPED_TRACE(pair.name + " " + adapter + (params.empty() ? "" : " " + params.begin()->second));
       icp::Options o;
       o.initial_pose = ds::load_pair_pose(pair, ds::PoseKind::initial, data).value_or(Eigen::Matrix4d::Identity());
       o.max_dist = {0.5, 0.8, 0.1};
       o.max_iterations = 30;
-      auto index = nnb::make_adapter(adapter, {{"hints", hints}});
-      ASSERT_TRUE(index->info().uses_hints);
-      const icp::Result hinted = register_clouds(*index, model, query, o);
       o.use_hints = false;
+      auto index = nnb::make_adapter(adapter, params);
       const icp::Result plain = register_clouds(*index, model, query, o);
-      EXPECT_EQ(hinted.pose, plain.pose) << pair.name << "\n" << describe(hinted.pose) << "\nvs\n" << describe(plain.pose);
-      ASSERT_EQ(hinted.per_iteration.size(), plain.per_iteration.size()) << pair.name;
+      faster(o);
+      const icp::Result other = register_clouds(*index, model, query, o);
+      EXPECT_EQ(other.pose, plain.pose) << describe(other.pose) << "\nvs\n" << describe(plain.pose);
+      ASSERT_EQ(other.per_iteration.size(), plain.per_iteration.size());
       for (std::size_t i = 0; i < plain.per_iteration.size(); ++i) {
-        EXPECT_EQ(hinted.per_iteration[i].correspondences, plain.per_iteration[i].correspondences) << pair.name << " " << i;
-        EXPECT_EQ(hinted.per_iteration[i].rms_m, plain.per_iteration[i].rms_m) << pair.name << " " << i;
+        EXPECT_EQ(other.per_iteration[i].correspondences, plain.per_iteration[i].correspondences) << "iteration " << i;
+        EXPECT_EQ(other.per_iteration[i].rms_m, plain.per_iteration[i].rms_m) << "iteration " << i;
       }
     }
   }
+}
+
+// Hinted search (the previous neighbours bound the next search, or prove it from ours' neighbour graph)
+// changes the speed, never the answer, with each way ours uses hints.
+TEST(IcpHints, SamePoseBitForBitWithAndWithoutHints) {
+  NNB_SKIP_WITHOUT_REAL_DATA();
+  for (const char* adapter : {"ours_kdtree", "ours_octree"}) ASSERT_TRUE(nnb::make_adapter(adapter)->info().uses_hints);
+  expect_same_registrations({{"ours_kdtree", {{"hints", "bound"}}}, {"ours_kdtree", {{"hints", "graph"}}},
+                             {"ours_octree", {{"hints", "graph"}}}},
+                            [](icp::Options& o) { o.use_hints = true; });
 }
 
 // Tracked search gives the rows the plain search gives (indices too), call after call, as queries move by
@@ -406,35 +416,11 @@ TEST(IcpTrack, RowsAreThePlainSearchsAsQueriesMove) {
   }
 }
 
-// ICP with tracked neighbours: the same pose bit for bit, the same pairs and RMS at every iteration, on each
-// real pair, with our k-d tree and Debian's nanoflann.
+// ICP with tracked neighbours: the same pose bit for bit, with our k-d tree and Debian's nanoflann.
 TEST(IcpTrack, SamePoseBitForBitAsWithout) {
   NNB_SKIP_WITHOUT_REAL_DATA();
-  const ds::DataOptions data;
-  for (const auto& pair : ds::real_pairs()) {
-    const Cloud model = ds::load_pair_scan(pair, ds::Role::model, data).points;
-    const Cloud full_query = ds::load_pair_scan(pair, ds::Role::query, data).points;
-    Cloud query(3, full_query.cols() / 4);
-    for (Eigen::Index i = 0; i < query.cols(); ++i) query.col(i) = full_query.col(4 * i);
-    for (const std::string& adapter : {std::string("ours_kdtree"), fast_exact_adapter()}) {
-      SCOPED_TRACE(adapter);
-      icp::Options o;
-      o.initial_pose = ds::load_pair_pose(pair, ds::PoseKind::initial, data).value_or(Eigen::Matrix4d::Identity());
-      o.max_dist = {0.5, 0.8, 0.1};
-      o.max_iterations = 30;
-      o.use_hints = false;
-      auto index = nnb::make_adapter(adapter);
-      const icp::Result plain = register_clouds(*index, model, query, o);
-      o.track_neighbours = true;
-      const icp::Result tracked = register_clouds(*index, model, query, o);
-      EXPECT_EQ(tracked.pose, plain.pose) << pair.name << "\n" << describe(tracked.pose) << "\nvs\n" << describe(plain.pose);
-      ASSERT_EQ(tracked.per_iteration.size(), plain.per_iteration.size()) << pair.name;
-      for (std::size_t i = 0; i < plain.per_iteration.size(); ++i) {
-        EXPECT_EQ(tracked.per_iteration[i].correspondences, plain.per_iteration[i].correspondences) << pair.name << " " << i;
-        EXPECT_EQ(tracked.per_iteration[i].rms_m, plain.per_iteration[i].rms_m) << pair.name << " " << i;
-      }
-    }
-  }
+  expect_same_registrations({{"ours_kdtree", {}}, {fast_exact_adapter(), {}}},
+                            [](icp::Options& o) { o.track_neighbours = true; });
 }
 
 // Tolerances: measured errors (nanoflann, every 8th point) were SICK 0.76 cm / 0.19 deg, Velodyne
