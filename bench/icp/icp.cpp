@@ -315,7 +315,9 @@ void NeighbourTrack::nearest_of_tied(const SearchIndex& index, double max_dist_m
   for (std::size_t u = 0; u < tied.size(); ++u) ask.col(static_cast<Eigen::Index>(u)) = searched_queries_.col(tied[u]);
   Neighbours one;
   index.ranged(ask, 1, max_dist_m, one);
-  for (std::size_t u = 0; u < tied.size(); ++u) tied_nearest_[tied[u]] = one.indices[one.offsets[u]];
+  for (std::size_t u = 0; u < tied.size(); ++u) {
+    if (one.count(u) > 0) tied_nearest_[tied[u]] = one.indices[one.offsets[u]];
+  }
 }
 
 namespace {

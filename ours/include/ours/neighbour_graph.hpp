@@ -111,9 +111,11 @@ class NeighbourGraph {
   }
 
   // (d / 2)^2 for a neighbour at squared distance sq_m2, shrunk by 2^-20 (computed distances are good to
-  // about 2^-50) and rounded down to a float.
+  // about 2^-50) and rounded down to a float (the largest float beyond its range; 0, proving nothing, for NaN).
   static float reach_bound(double sq_m2) {
     const double reach = 0.25 * sq_m2 * (1.0 - std::ldexp(1.0, -20));
+    if (std::isnan(reach)) return 0.0f;
+    if (reach >= static_cast<double>(std::numeric_limits<float>::max())) return std::numeric_limits<float>::max();
     float f = static_cast<float>(reach);
     if (static_cast<double>(f) > reach) f = std::nextafter(f, 0.0f);
     return f;
