@@ -225,10 +225,7 @@ class OursIndex : public SearchIndex {
       s.unproven.push_back(static_cast<PointIndex>(q));
       s.unproven_hints.push_back(hints[q]);
     }
-    s.tree_queries.resize(3, static_cast<Eigen::Index>(s.unproven.size()));
-    for (std::size_t u = 0; u < s.unproven.size(); ++u) {
-      s.tree_queries.col(static_cast<Eigen::Index>(u)) = queries.col(static_cast<Eigen::Index>(s.unproven[u]));
-    }
+    gather_columns(queries, s.unproven, s.tree_queries);
     search_bounded_by_hints(s.tree_queries, limit_sq_m2, s.unproven_hints, s.tree_rows);
     merge_hinted_rows(s, out);
     s.release_if_large();

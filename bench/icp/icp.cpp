@@ -231,32 +231,28 @@ void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const 
   const auto n = static_cast<std::size_t>(queries.cols());
   const double limit_sq_m2 = max_dist_m * max_dist_m;
   const double keep = 1.0 - std::ldexp(1.0, -20);
-  const bool have_state = nearest_.size() == n;
-  if (!have_state) {
+  if (nearest_.size() != n) {
     at_ = queries;
     nearest_.assign(n, kNoHint);
     clear_m_.assign(n, 0.0);  // nothing proven: every query is searched
   }
-  // Proven answers go straight into pairs; searched queries leave a gap filled below.
+  // A proven query's squared distance to its old nearest (infinite: proven to have none); -1: searched.
   searched_.clear();
-  std::vector<double> proven_sq(n, -1.0);
+  proven_sq_.assign(n, -1.0);
   for (std::size_t q = 0; q < n; ++q) {
     const double* p = queries.data() + 3 * q;
     const double delta_m = std::sqrt(sq_dist_m2(p, at_.data() + 3 * q));
     const double clear_m = clear_m_[q] * keep;
     if (nearest_[q] == kNoHint) {
-      if (clear_m - delta_m > max_dist_m) proven_sq[q] = std::numeric_limits<double>::infinity();
+      if (clear_m - delta_m > max_dist_m) proven_sq_[q] = std::numeric_limits<double>::infinity();
     } else {
       const double sq = sq_dist_m2(p, model.data() + 3 * static_cast<std::size_t>(nearest_[q]));
-      if (std::sqrt(sq) + delta_m < clear_m) proven_sq[q] = sq;
+      if (std::sqrt(sq) + delta_m < clear_m) proven_sq_[q] = sq;
     }
-    if (proven_sq[q] < 0.0) searched_.push_back(static_cast<PointIndex>(q));
+    if (proven_sq_[q] < 0.0) searched_.push_back(static_cast<PointIndex>(q));
   }
   proven_ = n - searched_.size();
-  searched_queries_.resize(3, static_cast<Eigen::Index>(searched_.size()));
-  for (std::size_t s = 0; s < searched_.size(); ++s) {
-    searched_queries_.col(static_cast<Eigen::Index>(s)) = queries.col(static_cast<Eigen::Index>(searched_[s]));
-  }
+  gather_columns(queries, searched_, searched_queries_);
   if (searched_.empty()) two_.reset();
   else index.ranged(searched_queries_, 2, max_dist_m, two_);
   far_clear_of_none(index, max_dist_m);
@@ -267,56 +263,58 @@ void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const 
     if (s < searched_.size() && searched_[s] == q) {
       const std::size_t at = two_.offsets[s];
       const std::size_t found = two_.count(s);
-      const PointIndex nearest = found > 0 ? tied_nearest_[s] != kNoHint ? tied_nearest_[s] : two_.indices[at] : kNoHint;
-      if (found > 0) pairs.push(nearest, two_.sq_dists[at]);
+      PointIndex nearest = kNoHint;
+      if (found > 0) {
+        nearest = tied_nearest_[s] != kNoHint ? tied_nearest_[s] : two_.indices[at];
+        pairs.push(nearest, two_.sq_dists[at]);
+      }
       at_.col(static_cast<Eigen::Index>(q)) = queries.col(static_cast<Eigen::Index>(q));
       nearest_[q] = nearest;
       clear_m_[q] = found > 1 ? std::sqrt(two_.sq_dists[at + 1]) : found == 1 ? max_dist_m : far_clear_m_[s];
       ++s;
-    } else if (proven_sq[q] <= limit_sq_m2) {
-      pairs.push(nearest_[q], proven_sq[q]);
+    } else if (proven_sq_[q] <= limit_sq_m2) {
+      pairs.push(nearest_[q], proven_sq_[q]);
     }
     pairs.end_query();
   }
+}
+
+void NeighbourTrack::search_again(const SearchIndex& index, const std::vector<PointIndex>& which, double max_dist_m) {
+  gather_columns(searched_queries_, which, again_queries_);
+  index.ranged(again_queries_, 1, max_dist_m, again_);
 }
 
 void NeighbourTrack::far_clear_of_none(const SearchIndex& index, double max_dist_m) {
   // A query with nothing within the limit searches its whole ball every time; its nearest point's distance
   // (or kFarLimits limits, when nothing lies that near: looking further costs more than it proves) lets the
   // next calls prove that nothing came within the limit.
-  std::vector<PointIndex> none;
+  again_which_.clear();
   for (std::size_t s = 0; s < searched_.size(); ++s) {
-    if (two_.count(s) == 0) none.push_back(static_cast<PointIndex>(s));
+    if (two_.count(s) == 0) again_which_.push_back(static_cast<PointIndex>(s));
   }
   far_clear_m_.assign(searched_.size(), 0.0);
-  if (none.empty()) return;
-  Cloud far(3, static_cast<Eigen::Index>(none.size()));
-  for (std::size_t u = 0; u < none.size(); ++u) far.col(static_cast<Eigen::Index>(u)) = searched_queries_.col(none[u]);
-  Neighbours nearest;
+  if (again_which_.empty()) return;
   const double far_m = kFarLimits * max_dist_m;
-  index.ranged(far, 1, far_m, nearest);
-  for (std::size_t u = 0; u < none.size(); ++u) {
-    far_clear_m_[none[u]] = nearest.count(u) > 0 ? std::sqrt(nearest.sq_dists[nearest.offsets[u]]) : far_m;
+  search_again(index, again_which_, far_m);
+  for (std::size_t u = 0; u < again_which_.size(); ++u) {
+    far_clear_m_[again_which_[u]] = again_.count(u) > 0 ? std::sqrt(again_.sq_dists[again_.offsets[u]]) : far_m;
   }
 }
 
 void NeighbourTrack::nearest_of_tied(const SearchIndex& index, double max_dist_m) {
   // Two nearest at the same distance: which one the plain search returns is the adapter's choice, so it
   // is asked for (a tie leaves the query's margin at zero: it is searched again next time).
-  std::vector<PointIndex> tied;
+  again_which_.clear();
   for (std::size_t s = 0; s < searched_.size(); ++s) {
     if (two_.count(s) == 2 && two_.sq_dists[two_.offsets[s]] == two_.sq_dists[two_.offsets[s] + 1]) {
-      tied.push_back(static_cast<PointIndex>(s));
+      again_which_.push_back(static_cast<PointIndex>(s));
     }
   }
   tied_nearest_.assign(searched_.size(), kNoHint);
-  if (tied.empty()) return;
-  Cloud ask(3, static_cast<Eigen::Index>(tied.size()));
-  for (std::size_t u = 0; u < tied.size(); ++u) ask.col(static_cast<Eigen::Index>(u)) = searched_queries_.col(tied[u]);
-  Neighbours one;
-  index.ranged(ask, 1, max_dist_m, one);
-  for (std::size_t u = 0; u < tied.size(); ++u) {
-    if (one.count(u) > 0) tied_nearest_[tied[u]] = one.indices[one.offsets[u]];
+  if (again_which_.empty()) return;
+  search_again(index, again_which_, max_dist_m);
+  for (std::size_t u = 0; u < again_which_.size(); ++u) {
+    if (again_.count(u) > 0) tied_nearest_[again_which_[u]] = again_.indices[again_.offsets[u]];
   }
 }
 

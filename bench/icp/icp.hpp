@@ -83,21 +83,31 @@ class NeighbourTrack {
   std::size_t proven() const { return proven_; }
 
  private:
-  Cloud at_;                        ///< each query where its state was set
-  std::vector<PointIndex> nearest_; ///< its nearest model point there, or kNoHint
-  std::vector<double> clear_m_;     ///< every other model point lay farther than this from at_
+  /// How far beyond the limit (in limits) the nearest of a query with none within it is looked for.
+  static constexpr double kFarLimits = 2.0;
+
   /// Sets far_clear_m_ for the searched queries that found nothing within the limit: their nearest's distance,
   /// up to kFarLimits times the limit.
   void far_clear_of_none(const SearchIndex& index, double max_dist_m);
   /// Sets tied_nearest_ for the searched queries whose two nearest tie: the plain search's choice.
   void nearest_of_tied(const SearchIndex& index, double max_dist_m);
-  std::vector<PointIndex> tied_nearest_;
-  /// How far beyond the limit (in limits) the nearest of a query with none within it is looked for.
-  static constexpr double kFarLimits = 2.0;
+  /// Searches the searched queries `which` (positions in searched_) again for one neighbour, into again_.
+  void search_again(const SearchIndex& index, const std::vector<PointIndex>& which, double max_dist_m);
+
+  // Each query's state, kept between calls.
+  Cloud at_;                        ///< each query where its state was set
+  std::vector<PointIndex> nearest_; ///< its nearest model point there, or kNoHint
+  std::vector<double> clear_m_;     ///< every other model point lay farther than this from at_
+  // One call's work, its memory kept between calls.
+  std::vector<double> proven_sq_;   ///< per query: its proven squared distance, or -1 when searched
   std::vector<PointIndex> searched_;
-  std::vector<double> far_clear_m_;
   Cloud searched_queries_;
-  Neighbours two_;
+  Neighbours two_;                  ///< the searched queries' two nearest
+  std::vector<double> far_clear_m_;
+  std::vector<PointIndex> tied_nearest_;
+  std::vector<PointIndex> again_which_;
+  Cloud again_queries_;
+  Neighbours again_;
   std::size_t proven_ = 0;
 };
 

@@ -62,6 +62,15 @@ inline void check_coordinate_range(const Cloud& cloud, const std::string& what) 
   throw InputError(msg.str());
 }
 
+/// The columns `which` of from, in that order, into `into` (resized; its memory kept between calls).
+template <class Indices>
+void gather_columns(const Cloud& from, const Indices& which, Cloud& into) {
+  into.resize(3, static_cast<Eigen::Index>(which.size()));
+  for (std::size_t i = 0; i < which.size(); ++i) {
+    into.col(static_cast<Eigen::Index>(i)) = from.col(static_cast<Eigen::Index>(which[i]));
+  }
+}
+
 /// Squared distance between two points in square metres, summed in a fixed order so that every
 /// adapter that recomputes distances in double gets the very same bits as brute force.
 inline double sq_dist_m2(const double* a, const double* b) {
