@@ -26,11 +26,14 @@ class ModelPrefetch {
   }
 
  private:
-  static constexpr std::size_t kAheadPairs = 16;
+  static constexpr std::size_t kAheadPairs = 48;
   const PointIndex* indices_;
   std::size_t last_;
   const double* xyz_;
 };
+
+// Two doubles in one register, for sums kept side by side.
+using V2 = double __attribute__((vector_size(16)));
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -110,6 +113,8 @@ void PairMoments::add(const Eigen::Vector3d& source, const Eigen::Vector3d& targ
   source_sum += s;
   target_sum += t;
   cross += s * t.transpose();
+  source_sq_m2 += s.squaredNorm();
+  target_sq_m2 += t.squaredNorm();
 }
 
 bool rigid_transform_from(const PairMoments& m, Eigen::Matrix4d& out) {
@@ -149,45 +154,65 @@ PairMoments pair_moments(const Neighbours& pairs, const Cloud& query, const Clou
   if (q == pairs.n_queries()) return m;
   m.source_shift = query.col(static_cast<Eigen::Index>(q));
   m.target_shift = model.col(static_cast<Eigen::Index>(pairs.indices[pairs.offsets[q]]));
-  // Plain scalars in one loop: the compiler keeps all fifteen sums in registers.
-  double s_sum[3] = {0, 0, 0}, t_sum[3] = {0, 0, 0}, cross[3][3] = {};
-  double sq_m2 = 0.0;
+  // Nineteen sums in ten two-lane vectors (GCC's generic vectors: SSE2 here, NEON or scalars elsewhere), so
+  // that none leaves a register. Each lane is one plain sum, added pair after pair as a scalar loop would.
+  // Row i of the cross products: (s_i t_0, s_i t_1) and (s_i t_2, s_i * 1), the latter lane the sum of s_i.
+  V2 row01[3] = {}, row2_s[3] = {};
+  V2 t01_sum = {}, t2_sq_sum = {};  // (t_0, t_1); (t_2, the search's squared distance)
+  V2 sq_sum = {};                   // (|s|^2, |t|^2)
+  const V2 s_shift01 = {m.source_shift[0], m.source_shift[1]}, t_shift01 = {m.target_shift[0], m.target_shift[1]};
+  const double s_shift2 = m.source_shift[2], t_shift2 = m.target_shift[2];
   Eigen::Index n = 0;
   const double* const qp = query.data();
   const double* const mp = model.data();
+  const std::size_t* const offsets = pairs.offsets.data();
+  const PointIndex* const indices = pairs.indices.data();
+  const double* const sq_dists = pairs.sq_dists.data();
   const ModelPrefetch prefetch(pairs, mp);
   for (; q < pairs.n_queries(); ++q) {
-    const std::size_t at = pairs.offsets[q];
-    if (pairs.offsets[q + 1] == at) continue;
+    const std::size_t at = offsets[q];
+    if (offsets[q + 1] == at) continue;
     prefetch.ahead_of(at);
     const double* const a = qp + 3 * q;
-    const double* const b = mp + 3 * static_cast<std::size_t>(pairs.indices[at]);
-    const double s[3] = {a[0] - m.source_shift[0], a[1] - m.source_shift[1], a[2] - m.source_shift[2]};
-    const double t[3] = {b[0] - m.target_shift[0], b[1] - m.target_shift[1], b[2] - m.target_shift[2]};
+    const double* const b = mp + 3 * static_cast<std::size_t>(indices[at]);
+    const V2 s01 = V2{a[0], a[1]} - s_shift01, t01 = V2{b[0], b[1]} - t_shift01;
+    const double s2 = a[2] - s_shift2, t2 = b[2] - t_shift2;
+    const V2 t2_one = {t2, 1.0};
+    const double s[3] = {s01[0], s01[1], s2};
     for (int i = 0; i < 3; ++i) {
-      s_sum[i] += s[i];
-      t_sum[i] += t[i];
-      for (int j = 0; j < 3; ++j) cross[i][j] += s[i] * t[j];
+      const V2 si = {s[i], s[i]};
+      row01[i] += si * t01;
+      row2_s[i] += si * t2_one;
     }
-    sq_m2 += pairs.sq_dists[at];
+    t01_sum += t01;
+    t2_sq_sum += V2{t2, sq_dists[at]};
+    const V2 x0 = {s01[0], t01[0]}, x1 = {s01[1], t01[1]}, x2 = {s2, t2};
+    sq_sum += (x0 * x0 + x1 * x1) + x2 * x2;
     ++n;
   }
   m.n = n;
+  m.source_sq_m2 = sq_sum[0];
+  m.target_sq_m2 = sq_sum[1];
+  m.target_sum = Eigen::Vector3d(t01_sum[0], t01_sum[1], t2_sq_sum[0]);
   for (int i = 0; i < 3; ++i) {
-    m.source_sum[i] = s_sum[i];
-    m.target_sum[i] = t_sum[i];
-    for (int j = 0; j < 3; ++j) m.cross(i, j) = cross[i][j];
+    m.cross.row(i) << row01[i][0], row01[i][1], row2_s[i][0];
+    m.source_sum[i] = row2_s[i][1];
   }
-  sum_sq_m2 += sq_m2;
+  sum_sq_m2 += t2_sq_sum[1];
   return m;
 }
 
-void move_point(const double (&r)[3][4], const double* p, double* out) {
-  for (int i = 0; i < 3; ++i) out[i] = r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + r[i][3];
+double sum_sq_after_m2(const PairMoments& m, const Eigen::Matrix4d& pose) {
+  // |R s + c - t|^2 summed, with s and t taken from their shifts and c = R source_shift + p - target_shift.
+  const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
+  const Eigen::Vector3d c = r * m.source_shift + pose.topRightCorner<3, 1>() - m.target_shift;
+  const double n = static_cast<double>(m.n);
+  const double sum = m.source_sq_m2 + m.target_sq_m2 + n * c.squaredNorm() +
+                     2.0 * c.dot(r * m.source_sum - m.target_sum) - 2.0 * (r * m.cross).trace();
+  return std::max(sum, 0.0);
 }
 
-double move_queries(const Cloud& query, const Eigen::Matrix4d& pose, Cloud& moved, const Neighbours* pairs,
-                    const Cloud& model) {
+void move_queries(const Cloud& query, const Eigen::Matrix4d& pose, Cloud& moved) {
   double r[3][4];
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 4; ++j) r[i][j] = pose(i, j);
@@ -196,27 +221,10 @@ double move_queries(const Cloud& query, const Eigen::Matrix4d& pose, Cloud& move
   const double* const in = query.data();
   double* const out = moved.data();
   const std::size_t n = static_cast<std::size_t>(query.cols());
-  const double* const mp = model.data();
-  double sum_sq_m2 = 0.0;
-  if (pairs == nullptr) {
-    for (std::size_t q = 0; q < n; ++q) move_point(r, in + 3 * q, out + 3 * q);
-    return sum_sq_m2;
-  }
-  const ModelPrefetch prefetch(*pairs, mp);
-  const std::size_t* const offsets = pairs->offsets.data();
-  const PointIndex* const indices = pairs->indices.data();
   for (std::size_t q = 0; q < n; ++q) {
     const double* const p = in + 3 * q;
-    double* const o = out + 3 * q;
-    move_point(r, p, o);
-    const std::size_t at = offsets[q];
-    if (offsets[q + 1] == at) continue;
-    prefetch.ahead_of(at);
-    const double* const b = mp + 3 * static_cast<std::size_t>(indices[at]);
-    const double d[3] = {o[0] - b[0], o[1] - b[1], o[2] - b[2]};
-    sum_sq_m2 += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    for (int i = 0; i < 3; ++i) out[3 * q + i] = r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + r[i][3];
   }
-  return sum_sq_m2;
 }
 
 double rotation_angle_rad(const Eigen::Matrix4d& transform) {
@@ -362,7 +370,8 @@ bool estimate_step(const Neighbours& pairs, const Cloud& query, const Cloud& mod
   const Eigen::Matrix4d step = next * result.pose.inverse();
   it.translation_step_m = step.topRightCorner<3, 1>().norm();
   it.rotation_step_rad = rotation_angle_rad(step);
-  it.rms_after_m = std::sqrt(move_queries(query, next, moved, &pairs, model) / n);
+  it.rms_after_m = std::sqrt(sum_sq_after_m2(m, next) / n);
+  move_queries(query, next, moved);
   result.pose = next;
   return true;
 }
@@ -379,7 +388,7 @@ Result register_prebuilt(const SearchIndex& index, const Cloud& model, const Clo
   std::vector<PointIndex> hints;
   NeighbourTrack track;
   auto t0 = Clock::now();
-  move_queries(query, result.pose, moved, nullptr, model);
+  move_queries(query, result.pose, moved);
   result.estimate_seconds += seconds_since(t0);
   for (int i = 0; i < options.max_iterations; ++i) {
     Iteration it;

@@ -125,6 +125,7 @@ struct PairMoments {
   Eigen::Vector3d source_shift = Eigen::Vector3d::Zero(), target_shift = Eigen::Vector3d::Zero();  ///< metres
   Eigen::Vector3d source_sum = Eigen::Vector3d::Zero(), target_sum = Eigen::Vector3d::Zero();      ///< metres
   Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();  ///< sum of (source - shift)(target - shift)^T, m^2
+  double source_sq_m2 = 0.0, target_sq_m2 = 0.0;    ///< sums of |source - shift|^2 and |target - shift|^2
   void add(const Eigen::Vector3d& source, const Eigen::Vector3d& target);
 };
 
@@ -137,11 +138,12 @@ bool estimate_rigid_transform(const Cloud& source, const Cloud& target, Eigen::M
 /// The moments of the pairs a ranged 1-NN search found (query point q with its first neighbour); adds
 /// their squared distances to sum_sq_m2.
 PairMoments pair_moments(const Neighbours& pairs, const Cloud& query, const Cloud& model, double& sum_sq_m2);
-/// Writes pose * query into moved (resized); with pairs, returns the sum of squared distances (m^2) of
-/// the moved paired points to their neighbours, else 0. One pass: ICP moves the points and measures
-/// the fit of the new pose together.
-double move_queries(const Cloud& query, const Eigen::Matrix4d& pose, Cloud& moved, const Neighbours* pairs,
-                    const Cloud& model);
+/// sum |pose * source_i - target_i|^2 (m^2) over the pairs, from their moments alone: the fit's residual
+/// without a second pass over the paired points. Its rounding is that of the moments, about 1e-15 of
+/// sum |source - shift|^2 (a residual of micrometres on a cloud 50 m wide); never below 0.
+double sum_sq_after_m2(const PairMoments& moments, const Eigen::Matrix4d& pose);
+/// Writes pose * query into moved (resized).
+void move_queries(const Cloud& query, const Eigen::Matrix4d& pose, Cloud& moved);
 
 /// Rotation angle of a rigid transform's rotation block, in radians.
 double rotation_angle_rad(const Eigen::Matrix4d& transform);
