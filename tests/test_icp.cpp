@@ -414,7 +414,8 @@ TEST(IcpHints, SamePoseBitForBitWithAndWithoutHints) {
 
 // Tracked search gives the rows the plain search gives (indices too), call after call, as queries move by
 // steps from tiny to large, under a fixed and a shrinking limit, on a cloud with exact duplicates (ties);
-// and it proves most small moves without a search.
+// and it proves most small moves without a search. The large steps make fresh margins fail, so the rows of
+// queries searched for their nearest only are compared too.
 TEST(IcpTrack, RowsAreThePlainSearchsAsQueriesMove) {
   Cloud model = ds::make_shape(ds::Shape::hollow_sphere, 4000, 5);
   for (Eigen::Index i = 0; i < 400; ++i) model.col(4000 - 1 - i) = model.col(i);  // 400 duplicated points
@@ -424,7 +425,7 @@ TEST(IcpTrack, RowsAreThePlainSearchsAsQueriesMove) {
     index->build(model);
     Cloud queries = ds::make_shape(ds::Shape::hollow_cube, 3000, 6) * 0.9;
     std::mt19937_64 rng(41);
-    std::size_t proven_small = 0;
+    std::size_t proven_small = 0, searched_for_one = 0;
     for (const bool shrink : {false, true}) {
       icp::NeighbourTrack track;
       for (int call = 0; call < 12; ++call) {
@@ -438,9 +439,11 @@ TEST(IcpTrack, RowsAreThePlainSearchsAsQueriesMove) {
         ASSERT_EQ(tracked.indices, plain.indices) << "call " << call;
         ASSERT_EQ(tracked.sq_dists, plain.sq_dists) << "call " << call;
         if (call > 0 && step_m < 1e-3) proven_small += track.proven();
+        searched_for_one += track.searched_for_one();
       }
     }
     EXPECT_GT(proven_small, 14u * 3000u / 2) << "small moves should mostly be proven without a search";
+    EXPECT_GT(searched_for_one, 1000u) << "the queries whose fresh margin failed should be searched for one";
   }
 }
 

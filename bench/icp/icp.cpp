@@ -237,15 +237,30 @@ double rotation_angle_rad(const Eigen::Matrix4d& transform) {
 void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const Cloud& queries, double max_dist_m,
                             Neighbours& pairs) {
   const auto n = static_cast<std::size_t>(queries.cols());
-  const double limit_sq_m2 = max_dist_m * max_dist_m;
-  const double keep = 1.0 - std::ldexp(1.0, -20);
   if (nearest_.size() != n) {
     at_ = queries;
     nearest_.assign(n, kNoHint);
     clear_m_.assign(n, 0.0);  // nothing proven: every query is searched
+    searched_two_.assign(n, 0);
   }
-  // A proven query's squared distance to its old nearest (infinite: proven to have none); -1: searched.
+  prove_or_pick_search(model, queries, max_dist_m);
+  gather_columns(queries, searched_, searched_queries_);
+  if (searched_.empty()) two_.reset();
+  else index.ranged(searched_queries_, 2, max_dist_m, two_);
+  gather_columns(queries, single_, single_queries_);
+  if (single_.empty()) one_.reset();
+  else index.ranged(single_queries_, 1, max_dist_m, one_);
+  far_clear_of_none(index, max_dist_m);
+  nearest_of_tied(index, max_dist_m);
+  fill_pairs(queries, max_dist_m, pairs);
+}
+
+void NeighbourTrack::prove_or_pick_search(const Cloud& model, const Cloud& queries, double max_dist_m) {
+  const auto n = static_cast<std::size_t>(queries.cols());
+  const double keep = 1.0 - std::ldexp(1.0, -20);
   searched_.clear();
+  single_.clear();
+  // A proven query's squared distance to its old nearest (infinite: proven to have none); -1: searched.
   proven_sq_.assign(n, -1.0);
   for (std::size_t q = 0; q < n; ++q) {
     const double* p = queries.data() + 3 * q;
@@ -257,16 +272,20 @@ void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const 
       const double sq = sq_dist_m2(p, model.data() + 3 * static_cast<std::size_t>(nearest_[q]));
       if (std::sqrt(sq) + delta_m < clear_m) proven_sq_[q] = sq;
     }
-    if (proven_sq_[q] < 0.0) searched_.push_back(static_cast<PointIndex>(q));
+    // A query whose fresh margin failed at once is likely to fail again: it is searched for one (cheaper)
+    // this time, and for two the next.
+    if (proven_sq_[q] >= 0.0) searched_two_[q] = 0;
+    else if (searched_two_[q] != 0) single_.push_back(static_cast<PointIndex>(q));
+    else searched_.push_back(static_cast<PointIndex>(q));
   }
-  proven_ = n - searched_.size();
-  gather_columns(queries, searched_, searched_queries_);
-  if (searched_.empty()) two_.reset();
-  else index.ranged(searched_queries_, 2, max_dist_m, two_);
-  far_clear_of_none(index, max_dist_m);
-  nearest_of_tied(index, max_dist_m);
+  proven_ = n - searched_.size() - single_.size();
+}
+
+void NeighbourTrack::fill_pairs(const Cloud& queries, double max_dist_m, Neighbours& pairs) {
+  const auto n = static_cast<std::size_t>(queries.cols());
+  const double limit_sq_m2 = max_dist_m * max_dist_m;
   pairs.reset(n, n);
-  std::size_t s = 0;
+  std::size_t s = 0, u = 0;
   for (std::size_t q = 0; q < n; ++q) {
     if (s < searched_.size() && searched_[s] == q) {
       const std::size_t at = two_.offsets[s];
@@ -279,7 +298,16 @@ void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const 
       at_.col(static_cast<Eigen::Index>(q)) = queries.col(static_cast<Eigen::Index>(q));
       nearest_[q] = nearest;
       clear_m_[q] = found > 1 ? std::sqrt(two_.sq_dists[at + 1]) : found == 1 ? max_dist_m : far_clear_m_[s];
+      searched_two_[q] = 1;
       ++s;
+    } else if (u < single_.size() && single_[u] == q) {
+      // Its own nearest only: it proves nothing next time, when it is searched for two again.
+      const bool found = one_.count(u) > 0;
+      if (found) pairs.push(one_.indices[one_.offsets[u]], one_.sq_dists[one_.offsets[u]]);
+      nearest_[q] = found ? one_.indices[one_.offsets[u]] : kNoHint;
+      clear_m_[q] = 0.0;
+      searched_two_[q] = 0;
+      ++u;
     } else if (proven_sq_[q] <= limit_sq_m2) {
       pairs.push(nearest_[q], proven_sq_[q]);
     }

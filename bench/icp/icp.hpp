@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -76,16 +77,24 @@ class NeighbourTrack {
  public:
   /// Fills pairs with each query's nearest model point within max_dist_m, as
   /// index.ranged(queries, 1, max_dist_m, pairs) would: proven from the last call's state where the query
-  /// moved little enough, else searched (its two nearest, to set its state anew). The same queries, in the
-  /// same order, at every call.
+  /// moved little enough, else searched: for its two nearest, to set its state anew, except right after
+  /// such a fresh state failed (then for its nearest only, a cheaper search; the next call searches for
+  /// two again). The same queries, in the same order, at every call.
   void ranged(const SearchIndex& index, const Cloud& model, const Cloud& queries, double max_dist_m, Neighbours& pairs);
   /// Queries answered without a search in the last call.
   std::size_t proven() const { return proven_; }
+  /// Queries searched for their nearest only in the last call (their margin, fresh from the call before, failed).
+  std::size_t searched_for_one() const { return single_.size(); }
 
  private:
   /// How far beyond the limit (in limits) the nearest of a query with none within it is looked for.
   static constexpr double kFarLimits = 2.0;
 
+  /// Proves what it can from the state; sets searched_ (to search for two) and single_ (for one: they were
+  /// searched for two in the last call and their margin did not hold, so they are unlikely to hold next).
+  void prove_or_pick_search(const Cloud& model, const Cloud& queries, double max_dist_m);
+  /// Writes every query's row from its proof or its search, and the searched queries' new state.
+  void fill_pairs(const Cloud& queries, double max_dist_m, Neighbours& pairs);
   /// Sets far_clear_m_ for the searched queries that found nothing within the limit: their nearest's distance,
   /// up to kFarLimits times the limit.
   void far_clear_of_none(const SearchIndex& index, double max_dist_m);
@@ -98,11 +107,15 @@ class NeighbourTrack {
   Cloud at_;                        ///< each query where its state was set
   std::vector<PointIndex> nearest_; ///< its nearest model point there, or kNoHint
   std::vector<double> clear_m_;     ///< every other model point lay farther than this from at_
+  std::vector<std::uint8_t> searched_two_;  ///< 1: its state was set by a search for two in the last call
   // One call's work, its memory kept between calls.
   std::vector<double> proven_sq_;   ///< per query: its proven squared distance, or -1 when searched
   std::vector<PointIndex> searched_;
   Cloud searched_queries_;
   Neighbours two_;                  ///< the searched queries' two nearest
+  std::vector<PointIndex> single_;
+  Cloud single_queries_;
+  Neighbours one_;                  ///< the single_ queries' nearest
   std::vector<double> far_clear_m_;
   std::vector<PointIndex> tied_nearest_;
   std::vector<PointIndex> again_which_;
