@@ -244,12 +244,8 @@ void NeighbourTrack::ranged(const SearchIndex& index, const Cloud& model, const 
     searched_two_.assign(n, 0);
   }
   prove_or_pick_search(model, queries, max_dist_m);
-  gather_columns(queries, searched_, searched_queries_);
-  if (searched_.empty()) two_.reset();
-  else index.ranged(searched_queries_, 2, max_dist_m, two_);
-  gather_columns(queries, single_, single_queries_);
-  if (single_.empty()) one_.reset();
-  else index.ranged(single_queries_, 1, max_dist_m, one_);
+  search_columns(index, queries, searched_, 2, max_dist_m, searched_queries_, two_);
+  search_columns(index, queries, single_, 1, max_dist_m, single_queries_, one_);
   far_clear_of_none(index, max_dist_m);
   nearest_of_tied(index, max_dist_m);
   fill_pairs(queries, max_dist_m, pairs);
@@ -316,8 +312,17 @@ void NeighbourTrack::fill_pairs(const Cloud& queries, double max_dist_m, Neighbo
 }
 
 void NeighbourTrack::search_again(const SearchIndex& index, const std::vector<PointIndex>& which, double max_dist_m) {
-  gather_columns(searched_queries_, which, again_queries_);
-  index.ranged(again_queries_, 1, max_dist_m, again_);
+  search_columns(index, searched_queries_, which, 1, max_dist_m, again_queries_, again_);
+}
+
+void NeighbourTrack::search_columns(const SearchIndex& index, const Cloud& queries, const std::vector<PointIndex>& which,
+                                    int k, double max_dist_m, Cloud& gathered, Neighbours& out) {
+  if (which.empty()) {
+    out.reset();
+    return;
+  }
+  gather_columns(queries, which, gathered);
+  index.ranged(gathered, k, max_dist_m, out);
 }
 
 void NeighbourTrack::far_clear_of_none(const SearchIndex& index, double max_dist_m) {

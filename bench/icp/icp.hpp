@@ -102,6 +102,9 @@ class NeighbourTrack {
   void nearest_of_tied(const SearchIndex& index, double max_dist_m);
   /// Searches the searched queries `which` (positions in searched_) again for one neighbour, into again_.
   void search_again(const SearchIndex& index, const std::vector<PointIndex>& which, double max_dist_m);
+  /// The ranged k-NN of the columns `which` of queries (gathered into `gathered`), into out.
+  static void search_columns(const SearchIndex& index, const Cloud& queries, const std::vector<PointIndex>& which,
+                             int k, double max_dist_m, Cloud& gathered, Neighbours& out);
 
   // Each query's state, kept between calls.
   Cloud at_;                        ///< each query where its state was set
