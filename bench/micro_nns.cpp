@@ -14,7 +14,9 @@
 // when built in, the newest) at every distance on every pair in both orders; under 100 ns a query at
 // <= 0.1 m on fig3 and the SICK pair; an ICP step under 10 ns a correspondence; building at least 2x
 // faster than the faster nanoflann; ours at least 1.8x faster on 2 threads than on one (wall time). Use --benchmark_out=FILE --benchmark_out_format=json for the raw
-// results and --benchmark_filter to run part of it (what did not run prints as "not run").
+// results and --benchmark_filter to run part of it (what did not run prints as "not run"). The reference
+// run adds --benchmark_repetitions=7 --benchmark_min_time=0.2 --benchmark_enable_random_interleaving=true:
+// a ratio's two sides then sample the same spells of a shared machine.
 #include "cli_common.hpp"
 #include "icp.hpp"
 #include "machine.hpp"

@@ -75,12 +75,15 @@ adapters_but() {
 
 # The command of STEP into the array cmd; the paper grid at 3 repetitions and a 0.5 s budget (as written,
 # with up to 100 repetitions and a 10 s budget, it takes days here), libspatialindex in a file of its own.
+# micro_nns's repetitions are interleaved at random across all its benchmarks, so that a slow spell of the
+# machine falls on both sides of a ratio rather than on one benchmark's repetitions in a row.
 command_of() {
   local o
   o=$out/$(output_of "$1")
   local grid=(--experiment paper --datasets "$(grid_datasets)" --strategies default --repetitions 3 --budget 0.5)
   case $1 in
-    micro_nns) cmd=("$bench/micro_nns" --benchmark_repetitions=3 "--benchmark_out=$o" --benchmark_out_format=json) ;;
+    micro_nns) cmd=("$bench/micro_nns" --benchmark_repetitions=7 --benchmark_min_time=0.2
+                    --benchmark_enable_random_interleaving=true "--benchmark_out=$o" --benchmark_out_format=json) ;;
     registry) cmd=("$bench/nns_query" --list --json) ;;
     checks) cmd=("$bench/nns_query" --adapter pcl_octree_approx --search knn --k 1 --points 100000 --check
                  --out -) ;;  # run_checks adds each pair's --model, --query and --stats, and drops the answers
