@@ -4,6 +4,7 @@
 // same order, no FMA: nnb_ours compiles with -ffp-contract=off), so their rows are final. Float trees
 // return a conservative superset; its distances are recomputed in double, filtered and truncated.
 #include "nnb/search_index.hpp"
+#include "nnb/team.hpp"
 #include "ours/collector.hpp"
 #include "ours/neighbour_graph.hpp"
 #include "ours/query_order.hpp"
@@ -44,18 +45,67 @@ void append_row(const std::vector<ours::Neighbour<T>>& best, const double* query
 /// Memory for answering a batch in Morton order, kept by each thread between batches: fresh memory costs
 /// a page fault a page on every batch (most of the time of a 60,000-query batch), unless it is huge.
 struct MortonScratch {
+  using Box = std::pair<std::array<double, 3>, std::array<double, 3>>;
   ours::QueryOrder order;
   std::vector<double> sorted_xyz;  ///< the queries in Morton order
   Neighbours answered;             ///< their rows, in that order
+  std::vector<Box> share_boxes;    ///< on threads: the box of each member's share (lo.x infinite: empty)
+
+  /// The box of every share.
+  Box joined_box() const {
+    Box all{{0, 0, 0}, {0, 0, 0}};
+    bool any = false;
+    for (const Box& box : share_boxes) {
+      if (box.first[0] == std::numeric_limits<double>::infinity()) continue;
+      for (int d = 0; d < 3; ++d) {
+        all.first[d] = any ? std::min(all.first[d], box.first[d]) : box.first[d];
+        all.second[d] = any ? std::max(all.second[d], box.second[d]) : box.second[d];
+      }
+      any = true;
+    }
+    return all;
+  }
 
   void release_if_large() {
-    if (order.order.size() > (std::size_t(1) << 20)) *this = MortonScratch{};
+    if (order.keys.size() > (std::size_t(1) << 20)) *this = MortonScratch{};
   }
 };
 
 inline MortonScratch& morton_scratch() {
   thread_local MortonScratch scratch;
   return scratch;
+}
+
+/// order (sized to the batch) = the queries' Morton order, as ours::morton_order makes it, found by a
+/// team: each member the box and the keys of its share, member 0 the sort (in its MortonScratch).
+inline void morton_order_on_team(const Cloud& queries, const Team& team, std::vector<PointIndex>& order) {
+  const auto n = static_cast<std::size_t>(queries.cols());
+  team.phase([&] {
+    if (team.member() != 0) return;
+    MortonScratch& scratch = morton_scratch();
+    scratch.share_boxes.resize(static_cast<std::size_t>(team.size()));
+    scratch.order.keys.resize(n);
+    team.publish(scratch);
+  });
+  MortonScratch* scratch = team.scratch<MortonScratch>();  // used in bodies only: null if its phase failed
+  const std::pair<std::size_t, std::size_t> mine = team.share(n);
+  team.phase([&] {
+    MortonScratch::Box& box = scratch->share_boxes[static_cast<std::size_t>(team.member())];
+    box.first = box.second = {std::numeric_limits<double>::infinity(), 0, 0};  // marks an empty share
+    if (mine.second > mine.first) {
+      ours::bounding_box(queries.data() + 3 * mine.first, mine.second - mine.first, box.first, box.second);
+    }
+  });
+  const auto grid = [&] {  // the same on every member
+    const MortonScratch::Box all = scratch->joined_box();
+    return ours::morton_grid(all.first, all.second);
+  };
+  team.phase([&] { ours::morton_keys(queries.data(), mine.first, mine.second, grid(), scratch->order.keys.data()); });
+  team.phase([&] {
+    if (team.member() == 0) ours::sort_morton_keys(scratch->order);
+  });
+  team.phase([&] { ours::indices_of_keys(scratch->order.keys, mine.first, mine.second, order.data()); });
+  if (team.member() == 0 && scratch != nullptr) scratch->release_if_large();
 }
 
 /// The order a batch is answered in (the adapters' "order" parameter): "caller" (as given), "morton"
@@ -233,16 +283,19 @@ class OursIndex : public SearchIndex {
 
   // On threads, the slices are runs of the Morton order unless the batch follows a scan (or order=caller):
   // sorted slice by slice instead, each thread's queries would be spread over the whole cloud.
-  std::vector<PointIndex> slicing_order(const Cloud& queries) const override {
+  void slicing_order(const Cloud& queries, const Team& team, std::vector<PointIndex>& order) const override {
+    team.phase([&] {
+      if (team.member() == 0 && sorts_on_threads(queries)) order.resize(static_cast<std::size_t>(queries.cols()));
+    });
+    if (!order.empty()) morton_order_on_team(queries, team, order);
+  }
+
+  // Whether a batch on threads is sliced in Morton order (see slicing_order).
+  bool sorts_on_threads(const Cloud& queries) const {
     const auto n = static_cast<std::size_t>(queries.cols());
-    if (order_ == Order::caller || n > std::numeric_limits<PointIndex>::max()) return {};
-    if (order_ == Order::automatic) {
-      const bool scan = use_float_ ? follows_a_scan(float_, queries.data(), n) : follows_a_scan(double_, queries.data(), n);
-      if (scan) return {};
-    }
-    ours::QueryOrder order;
-    ours::morton_order(queries.data(), n, order);
-    return std::move(order.order);
+    if (order_ == Order::caller || n > std::numeric_limits<PointIndex>::max()) return false;
+    if (order_ == Order::morton) return true;
+    return !(use_float_ ? follows_a_scan(float_, queries.data(), n) : follows_a_scan(double_, queries.data(), n));
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {

@@ -2,11 +2,15 @@
 // order, the same indices and the same distances, in every query kind and strategy. Adapters declared
 // Concurrency::queries run their slices side by side (under ThreadSanitizer too, see subjects_tsan.cpp),
 // Concurrency::library ones hand the threads to their library, Concurrency::single ones stay on one.
+#include "ours_rows.hpp"
 #include "subjects.hpp"
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <random>
+#include <stdexcept>
+#include <thread>
 
 namespace {
 
@@ -133,22 +137,21 @@ TEST(ThreadsAsked, BadQueriesAreRefusedBeforeSplitting) {
   EXPECT_THROW(index->ranged(queries, 1, 0.1, out), nnb::InputError);
 }
 
-// Rows answered in pieces, in another order, land after the rows out holds, each at its own query.
-TEST(RowsInOrder, PiecesReturnToTheCallersOrder) {
+// Rows answered in another order land after the rows out holds, each at its own query.
+TEST(RowsInOrder, RowsReturnToTheCallersOrder) {
   Neighbours out;
   out.reset();
   out.push(7, 0.5);
   out.end_query();
-  std::vector<Neighbours> pieces(2);
-  for (auto& piece : pieces) piece.reset();
-  // Answered order: queries 2, 0 (first piece), then 3, 1 (second); query q has q neighbours.
+  Neighbours answered;
+  answered.reset();
+  // Answered order: queries 2, 0, 3, 1; query q has q neighbours.
   const std::vector<nnb::PointIndex> order{2, 0, 3, 1};
-  for (std::size_t s = 0; s < order.size(); ++s) {
-    Neighbours& piece = pieces[s / 2];
-    for (nnb::PointIndex j = 0; j < order[s]; ++j) piece.push(10 * order[s] + j, 0.1 * order[s]);
-    piece.end_query();
+  for (const nnb::PointIndex q : order) {
+    for (nnb::PointIndex j = 0; j < q; ++j) answered.push(10 * q + j, 0.1 * q);
+    answered.end_query();
   }
-  nnb::append_rows_in_order(pieces, order, out);
+  nnb::append_rows_in_order(answered, order, out);
   ASSERT_EQ(out.n_queries(), 5u);
   EXPECT_EQ(out.count(0), 1u);
   for (std::size_t q = 0; q < 4; ++q) {
@@ -159,9 +162,88 @@ TEST(RowsInOrder, PiecesReturnToTheCallersOrder) {
     }
   }
   const Neighbours before = out;
-  std::vector<Neighbours> short_of_one(1, pieces[0]);
-  EXPECT_THROW(nnb::append_rows_in_order(short_of_one, order, out), std::logic_error);
+  EXPECT_THROW(nnb::append_rows_in_order(answered, {2, 0, 3}, out), std::logic_error);
   EXPECT_TRUE(same_rows(before, out));
+}
+
+// Runs body(team) on a team of `size` threads, this one member 0; rethrows what a body threw.
+template <class Body>
+void on_team(int size, Body body) {
+  nnb::Team::Shared shared;
+  std::vector<std::thread> others;
+  for (int member = 1; member < size; ++member) others.emplace_back([&, member] { body(nnb::Team(member, shared)); });
+  shared.size.store(size, std::memory_order_release);
+  body(nnb::Team(0, shared));
+  for (auto& other : others) other.join();
+  if (shared.error) std::rethrow_exception(shared.error);
+}
+
+// Each phase sees what every member wrote in the phase before, round after round (teams larger than the
+// machine's cores included: the barrier then yields).
+TEST(Team, EachPhaseSeesThePreviousPhasesWrites) {
+  for (const int size : {2, 3, 7}) {
+    std::vector<long> written(static_cast<std::size_t>(size), 0);
+    std::vector<int> wrong(static_cast<std::size_t>(size), 0);
+    on_team(size, [&](const nnb::Team& team) {
+      const auto me = static_cast<std::size_t>(team.member());
+      for (long round = 1; round <= 200; ++round) {
+        team.phase([&] { written[me] = round * long(me + 1); });
+        team.phase([&] {
+          long sum = 0;
+          for (const long value : written) sum += value;
+          if (sum != round * size * (size + 1) / 2) ++wrong[me];
+        });
+      }
+    });
+    EXPECT_EQ(wrong, std::vector<int>(static_cast<std::size_t>(size), 0)) << size << " members";
+  }
+}
+
+// A body that throws does not leave the others waiting: the phase ends, the later bodies are skipped, and
+// the exception reaches the caller.
+TEST(Team, AThrowingBodySkipsTheRestAndIsRethrown) {
+  std::atomic<int> later{0};
+  EXPECT_THROW(on_team(3,
+                       [&](const nnb::Team& team) {
+                         team.phase([&] {
+                           if (team.member() == 1) throw std::runtime_error("member 1 fails");
+                         });
+                         team.phase([&] { ++later; });
+                       }),
+               std::runtime_error);
+  EXPECT_EQ(later.load(), 0);
+}
+
+// The members' shares cover the items once, in order.
+TEST(Team, SharesCoverEveryItemOnce) {
+  for (const int size : {1, 2, 5}) {
+    for (const std::size_t n : {0u, 1u, 4u, 1001u}) {
+      std::size_t next = 0;
+      for (int member = 0; member < size; ++member) {
+        nnb::Team::Shared shared;
+        shared.size = size;
+        const auto share = nnb::Team(member, shared).share(n);
+        EXPECT_EQ(share.first, next) << n << " items, member " << member << " of " << size;
+        next = share.second;
+      }
+      EXPECT_EQ(next, n);
+    }
+  }
+}
+
+// The Morton order a team finds (each member the box and keys of its share) is the one ours::morton_order
+// finds alone, for batches whose grids differ in size.
+TEST(Team, MortonOrderOnATeamIsTheSerialOne) {
+  for (const Eigen::Index n : {Eigen::Index(300), Eigen::Index(5000), Eigen::Index(40000)}) {
+    const Cloud queries = cube_points(n, 9);
+    ours::QueryOrder alone;
+    ours::morton_order(queries.data(), static_cast<std::size_t>(n), alone);
+    for (const int size : {2, 3}) {
+      std::vector<nnb::PointIndex> order(static_cast<std::size_t>(n));
+      on_team(size, [&](const nnb::Team& team) { nnb::adapters::ours_rows::morton_order_on_team(queries, team, order); });
+      EXPECT_EQ(order, alone.order) << n << " queries on " << size << " threads";
+    }
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryAdapter, Threads, ::testing::ValuesIn(nnb::testing::thread_subjects()),

@@ -8,6 +8,8 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 #include <system_error>
 #include <thread>
 
@@ -166,6 +168,70 @@ std::vector<Eigen::Index> slice_starts(Eigen::Index n, int threads, Eigen::Index
   return starts;
 }
 
+// Takes slices in turn until none is left: slice s holds the queries starts[s] to starts[s + 1] of the
+// order (of the batch when order is empty); its rows go to rows[s], and member to answered_by[s].
+template <class Answer>
+void answer_slices(const Cloud& queries, const std::vector<Eigen::Index>& starts, const std::vector<PointIndex>& order,
+                   const Answer& answer, int member, std::atomic<std::size_t>& next, std::vector<Neighbours>& rows,
+                   std::vector<int>& answered_by) {
+  for (std::size_t s = next++; s < rows.size(); s = next++) {
+    const Eigen::Index first = starts[s], last = starts[s + 1];
+    Cloud slice(3, last - first);
+    for (Eigen::Index i = first; i < last; ++i)
+      slice.col(i - first) = queries.col(order.empty() ? i : order[static_cast<std::size_t>(i)]);
+    Neighbours own;  // filled on this thread's stack: rows[] side by side would share cache lines
+    answer(slice, first, own);
+    if (own.n_queries() != static_cast<std::size_t>(last - first)) {
+      throw std::logic_error("a slice of " + std::to_string(last - first) + " queries got " +
+                             std::to_string(own.n_queries()) + " rows");
+    }
+    rows[s] = std::move(own);
+    answered_by[s] = member;
+  }
+}
+
+// Puts the slices' rows into out (its offsets already sized) in the caller's order, each member those of the
+// slices it answered (still in its cache), in three phases: the row lengths where their queries belong,
+// their sums into offsets (member 0), then the rows themselves.
+void return_rows(const Team& team, const std::vector<Eigen::Index>& starts, const std::vector<PointIndex>& order,
+                 const std::vector<Neighbours>& rows, const std::vector<int>& answered_by, Neighbours& out) {
+  const auto query_at = [&](std::size_t position) { return order.empty() ? position : std::size_t(order[position]); };
+  const auto each_slice_of_mine = [&](auto&& slice_work) {
+    for (std::size_t s = 0; s < rows.size(); ++s) {
+      if (answered_by[s] == team.member()) slice_work(static_cast<std::size_t>(starts[s]), rows[s]);
+    }
+  };
+  team.phase([&] {
+    each_slice_of_mine([&](std::size_t first, const Neighbours& slice) {
+      for (std::size_t j = 0; j < slice.n_queries(); ++j) out.offsets[query_at(first + j) + 1] = slice.count(j);
+    });
+  });
+  team.phase([&] {
+    if (team.member() != 0) return;
+    out.offsets[0] = 0;
+    for (std::size_t q = 1; q < out.offsets.size(); ++q) out.offsets[q] += out.offsets[q - 1];
+    out.indices.resize(out.offsets.back());
+    out.sq_dists.resize(out.offsets.back());
+  });
+  team.phase([&] {
+    each_slice_of_mine([&](std::size_t first, const Neighbours& slice) {
+      if (order.empty()) {  // the slice's rows are consecutive in out too
+        const auto to = static_cast<std::ptrdiff_t>(out.offsets[first]);
+        std::copy(slice.indices.begin(), slice.indices.end(), out.indices.begin() + to);
+        std::copy(slice.sq_dists.begin(), slice.sq_dists.end(), out.sq_dists.begin() + to);
+        return;
+      }
+      for (std::size_t j = 0; j < slice.n_queries(); ++j) {
+        const auto from = static_cast<std::ptrdiff_t>(slice.offsets[j]);
+        const auto to = static_cast<std::ptrdiff_t>(out.offsets[query_at(first + j)]);
+        const auto count = static_cast<std::ptrdiff_t>(slice.count(j));
+        std::copy_n(slice.indices.begin() + from, count, out.indices.begin() + to);
+        std::copy_n(slice.sq_dists.begin() + from, count, out.sq_dists.begin() + to);
+      }
+    });
+  });
+}
+
 }  // namespace
 
 void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const SliceAnswer& answer,
@@ -177,52 +243,33 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
     answer(queries, 0, out);
     return;
   }
-  const std::vector<PointIndex> order = may_reorder ? slicing_order(queries) : std::vector<PointIndex>{};
   const std::vector<Eigen::Index> starts = slice_starts(n, threads, kMinQueriesPerThread);
-  const auto slices = static_cast<Eigen::Index>(starts.size() - 1);
-  std::vector<Neighbours> rows(static_cast<std::size_t>(slices));
-  std::vector<std::exception_ptr> errors(static_cast<std::size_t>(slices));
-  std::atomic<Eigen::Index> next{0};
-  const auto take_slices = [&] {
-    for (Eigen::Index s = next++; s < slices; s = next++) {
-      const Eigen::Index first = starts[static_cast<std::size_t>(s)];
-      const Eigen::Index last = starts[static_cast<std::size_t>(s) + 1];
-      try {
-        Cloud slice(3, last - first);
-        for (Eigen::Index i = first; i < last; ++i)
-          slice.col(i - first) = queries.col(order.empty() ? i : order[static_cast<std::size_t>(i)]);
-        Neighbours own;  // filled on this thread's stack: rows[] side by side would share cache lines
-        answer(slice, first, own);
-        rows[static_cast<std::size_t>(s)] = std::move(own);
-      } catch (...) {
-        errors[static_cast<std::size_t>(s)] = std::current_exception();
-      }
-    }
+  std::vector<Neighbours> rows(starts.size() - 1);
+  std::vector<int> answered_by(rows.size());
+  std::vector<PointIndex> order;  // empty: the caller's
+  out.offsets.resize(static_cast<std::size_t>(n) + 1);
+  std::atomic<std::size_t> next{0};
+  Team::Shared shared;
+  const auto work = [&](int member) {
+    const Team team(member, shared);
+    if (may_reorder) slicing_order(queries, team, order);
+    team.phase([&] { answer_slices(queries, starts, order, answer, member, next, rows, answered_by); });
+    return_rows(team, starts, order, rows, answered_by, out);
   };
   std::vector<std::thread> workers;
   workers.reserve(static_cast<std::size_t>(threads - 1));
   try {
-    while (static_cast<int>(workers.size()) < threads - 1) workers.emplace_back(take_slices);
+    while (static_cast<int>(workers.size()) < threads - 1) workers.emplace_back(work, static_cast<int>(workers.size()) + 1);
   } catch (const std::system_error&) {
-    // No more threads to be had: those running, this one included, take every slice.
+    // No more threads to be had: those running, this one included, are the team.
   }
-  take_slices();
+  shared.size.store(static_cast<int>(workers.size()) + 1, std::memory_order_release);
+  work(0);
   for (auto& worker : workers) worker.join();
-  for (const auto& error : errors) {
-    if (error) std::rethrow_exception(error);
-  }
-  out.reset(0);
-  if (!order.empty()) {
-    append_rows_in_order(rows, order, out);
-    return;
-  }
-  std::size_t total = 0;
-  for (const auto& r : rows) total += r.total();
-  out.reset(static_cast<std::size_t>(n), total);
-  for (const auto& r : rows) append_rows(r, out);
+  if (shared.error) std::rethrow_exception(shared.error);
 }
 
-std::vector<PointIndex> SearchIndex::slicing_order(const Cloud&) const { return {}; }
+void SearchIndex::slicing_order(const Cloud&, const Team&, std::vector<PointIndex>&) const {}
 
 void SearchIndex::knn(const Cloud& queries, int k, Neighbours& out) const {
   check_supported(SearchKind::knn);
@@ -392,55 +439,24 @@ void recompute_sq_dists(const Cloud& model, const Cloud& queries, Neighbours& ou
   }
 }
 
-void append_rows(const Neighbours& rows, Neighbours& out) {
-  const std::size_t base = out.indices.size();
-  out.indices.insert(out.indices.end(), rows.indices.begin(), rows.indices.end());
-  out.sq_dists.insert(out.sq_dists.end(), rows.sq_dists.begin(), rows.sq_dists.end());
-  for (std::size_t q = 1; q < rows.offsets.size(); ++q) out.offsets.push_back(base + rows.offsets[q]);
-}
-
-namespace {
-
-/// Row j of pieces[0], then of pieces[1], ... is the row of query order[s] (s counting across the pieces).
-void append_pieces_in_order(const std::vector<const Neighbours*>& pieces, const std::vector<PointIndex>& order,
-                            Neighbours& out) {
+void append_rows_in_order(const Neighbours& answered, const std::vector<PointIndex>& order, Neighbours& out) {
   const std::size_t first = out.n_queries(), n = order.size();
-  std::size_t rows = 0;
-  for (const Neighbours* piece : pieces) rows += piece->n_queries();
-  if (rows != n) throw std::logic_error("append_rows_in_order: " + std::to_string(rows) + " rows for an order of " +
-                                        std::to_string(n) + " queries");
-  out.offsets.resize(first + n + 1);
-  std::size_t s = 0;
-  for (const Neighbours* piece : pieces) {
-    for (std::size_t j = 0; j < piece->n_queries(); ++j, ++s) out.offsets[first + order[s] + 1] = piece->count(j);
+  if (answered.n_queries() != n) {
+    throw std::logic_error("append_rows_in_order: " + std::to_string(answered.n_queries()) + " rows for an order of " +
+                           std::to_string(n) + " queries");
   }
+  out.offsets.resize(first + n + 1);
+  for (std::size_t s = 0; s < n; ++s) out.offsets[first + order[s] + 1] = answered.count(s);
   for (std::size_t q = first; q < first + n; ++q) out.offsets[q + 1] += out.offsets[q];
   out.indices.resize(out.offsets.back());
   out.sq_dists.resize(out.offsets.back());
-  s = 0;
-  for (const Neighbours* piece : pieces) {
-    for (std::size_t j = 0; j < piece->n_queries(); ++j, ++s) {
-      const auto from = static_cast<std::ptrdiff_t>(piece->offsets[j]);
-      const auto to = static_cast<std::ptrdiff_t>(out.offsets[first + order[s]]);
-      const auto count = static_cast<std::ptrdiff_t>(piece->count(j));
-      std::copy_n(piece->indices.begin() + from, count, out.indices.begin() + to);
-      std::copy_n(piece->sq_dists.begin() + from, count, out.sq_dists.begin() + to);
-    }
+  for (std::size_t s = 0; s < n; ++s) {
+    const auto from = static_cast<std::ptrdiff_t>(answered.offsets[s]);
+    const auto to = static_cast<std::ptrdiff_t>(out.offsets[first + order[s]]);
+    const auto count = static_cast<std::ptrdiff_t>(answered.count(s));
+    std::copy_n(answered.indices.begin() + from, count, out.indices.begin() + to);
+    std::copy_n(answered.sq_dists.begin() + from, count, out.sq_dists.begin() + to);
   }
-}
-
-}  // namespace
-
-void append_rows_in_order(const Neighbours& answered, const std::vector<PointIndex>& order, Neighbours& out) {
-  append_pieces_in_order({&answered}, order, out);
-}
-
-void append_rows_in_order(const std::vector<Neighbours>& pieces, const std::vector<PointIndex>& order,
-                          Neighbours& out) {
-  std::vector<const Neighbours*> all;
-  all.reserve(pieces.size());
-  for (const auto& piece : pieces) all.push_back(&piece);
-  append_pieces_in_order(all, order, out);
 }
 
 void filter_by_sq_dist(double limit_sq_m2, Neighbours& out) {

@@ -59,7 +59,6 @@ inline std::uint32_t grid_cell(double x, double lo, double scale) {
 #endif
 }
 
-
 /// Sorts keys by the 30 bits above their lower 32 in stable passes over the keys. Each pass costs about
 /// the same whatever its width while its counts stay in cache: two passes of 15 bits for large batches
 /// (nearly half the time of three passes of 10 on 60,000 queries), three of 10 for small ones, whose
@@ -83,27 +82,54 @@ inline void radix_sort_codes(std::vector<std::uint64_t>& keys, std::vector<std::
 
 }  // namespace detail
 
+/// The grid morton_order sorts on: 1024 cells an axis over a box, one cube for all axes (cells stay
+/// cubic). Point clouds are surfaces, so a batch fills a grid's cells as their square, not their cube:
+/// a coarser grid for a smaller batch left many queries to a cell, in the caller's order.
+struct MortonGrid {
+  std::array<double, 3> lo{0, 0, 0};
+  double scale = 0.0;  ///< cells a metre; 0 puts every query in one cell
+};
+
+/// The grid over the box [lo, hi]. An infinite span (coordinates near the double range's ends) gives
+/// scale 0 and one cell; NaNs fall in cell 0.
+inline MortonGrid morton_grid(const std::array<double, 3>& lo, const std::array<double, 3>& hi) {
+  double span_m = 0;
+  for (int d = 0; d < 3; ++d) span_m = std::max(span_m, hi[d] - lo[d]);
+  return {lo, span_m > 0.0 && span_m < 1e300 ? 1024.0 / span_m : 0.0};
+}
+
+/// keys[i] = (Morton code << 32) | i for the queries first to last - 1 (a share of a batch: threads may
+/// each fill their own).
+inline void morton_keys(const double* xyz, std::size_t first, std::size_t last, const MortonGrid& grid,
+                        std::uint64_t* keys) {
+  for (std::size_t i = first; i < last; ++i) {
+    const double* q = xyz + 3 * i;
+    const std::uint64_t code = spread_bits_3(detail::grid_cell(q[0], grid.lo[0], grid.scale)) |
+                               spread_bits_3(detail::grid_cell(q[1], grid.lo[1], grid.scale)) << 1 |
+                               spread_bits_3(detail::grid_cell(q[2], grid.lo[2], grid.scale)) << 2;
+    keys[i] = code << 32 | static_cast<std::uint32_t>(i);
+  }
+}
+
+/// Sorts out.keys by their Morton codes (stable: queries in one cell keep their order).
+inline void sort_morton_keys(QueryOrder& out) { detail::radix_sort_codes(out.keys, out.scratch, out.counts); }
+
+/// The query indices of sorted keys [first, last) into order (a share, as for morton_keys).
+inline void indices_of_keys(const std::vector<std::uint64_t>& keys, std::size_t first, std::size_t last,
+                            std::uint32_t* order) {
+  for (std::size_t i = first; i < last; ++i) order[i] = static_cast<std::uint32_t>(keys[i]);
+}
+
 /// Fills out.order with the n queries' indices (xyz: x,y,z triples, metres) in Morton order of a
 /// 1024^3 grid over their bounding box; queries in one cell keep the caller's order.
 inline void morton_order(const double* xyz, std::size_t n, QueryOrder& out) {
   std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};
   if (n > 0) bounding_box(xyz, n, lo, hi);
-  double span_m = 0;
-  for (int d = 0; d < 3; ++d) span_m = std::max(span_m, hi[d] - lo[d]);
-  // One cube for all axes keeps cells cubic; an infinite span (coordinates near the double range's
-  // ends) gives scale 0 and one cell, and NaNs fall in cell 0.
-  const double scale = span_m > 0.0 && span_m < 1e300 ? 1024.0 / span_m : 0.0;
   out.keys.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double* q = xyz + 3 * i;
-    const std::uint64_t code = spread_bits_3(detail::grid_cell(q[0], lo[0], scale)) |
-                               spread_bits_3(detail::grid_cell(q[1], lo[1], scale)) << 1 |
-                               spread_bits_3(detail::grid_cell(q[2], lo[2], scale)) << 2;
-    out.keys[i] = code << 32 | static_cast<std::uint32_t>(i);
-  }
-  detail::radix_sort_codes(out.keys, out.scratch, out.counts);
+  morton_keys(xyz, 0, n, morton_grid(lo, hi), out.keys.data());
+  sort_morton_keys(out);
   out.order.resize(n);
-  for (std::size_t i = 0; i < n; ++i) out.order[i] = static_cast<std::uint32_t>(out.keys[i]);
+  indices_of_keys(out.keys, 0, n, out.order.data());
 }
 
 }  // namespace ours

@@ -6,6 +6,7 @@
 // within a radius. A point at exactly the limit counts (inclusive) in every query kind and adapter.
 #include "nnb/cloud.hpp"
 #include "nnb/neighbours.hpp"
+#include "nnb/team.hpp"
 
 #include <cstddef>
 #include <functional>
@@ -152,17 +153,20 @@ class SearchIndex {
   /// Called by ranged_hinted when info().uses_hints; hints are checked (one per query, each in range).
   virtual void do_ranged_hinted(const Cloud& queries, double max_dist_m, const std::vector<PointIndex>& hints,
                                 Neighbours& out) const;
-  /// The order a batch split over threads is sliced in: a permutation of its query indices (each slice
-  /// is then a run of it, so that a thread gets neighbouring queries), or empty for the caller's order.
-  /// The rows come back in the caller's order either way. Default: empty.
-  virtual std::vector<PointIndex> slicing_order(const Cloud& queries) const;
+  /// The order a batch split over threads is sliced in: fills order with a permutation of its query
+  /// indices (each slice is then a run of it, so that a thread gets neighbouring queries), or leaves it
+  /// empty for the caller's order. The rows come back in the caller's order either way. Every member of
+  /// the batch's team calls it: order is shared, written in team phases (each member running the same
+  /// phases). Default: no phase, the caller's order.
+  virtual void slicing_order(const Cloud& queries, const Team& team, std::vector<PointIndex>& order) const;
 
  private:
   void check_queries(const Cloud& queries) const;
   int useful_k(int k) const;
   void check_supported(SearchKind kind) const;
   /// Answers a batch with answer(slice, first query of the slice, rows), split over threads_used()
-  /// threads when the adapter is Concurrency::queries, and joins the rows in query order.
+  /// threads when the adapter is Concurrency::queries (one team: see nnb/team.hpp), and joins the rows in
+  /// query order.
   using SliceAnswer = std::function<void(const Cloud& slice, Eigen::Index first, Neighbours& rows)>;
   /// With may_reorder, the slices are runs of slicing_order(queries) (first is then a position in it).
   void answer_in_slices(const Cloud& queries, Neighbours& out, const SliceAnswer& answer,
@@ -203,14 +207,9 @@ class ParamReader {
 void recompute_sq_dists(const Cloud& model, const Cloud& queries, Neighbours& out);
 /// Keeps, per query, the entries with sq_dist <= limit_sq_m2 (keeps their order).
 void filter_by_sq_dist(double limit_sq_m2, Neighbours& out);
-/// Appends rows (whole queries) after those already in out.
-void append_rows(const Neighbours& rows, Neighbours& out);
 /// Appends rows answered in another order: row s of answered belongs to the order[s]-th query after
 /// those out already holds; they are appended in query order.
 void append_rows_in_order(const Neighbours& answered, const std::vector<PointIndex>& order, Neighbours& out);
-/// The same for rows answered in pieces: the rows of pieces[0], then of pieces[1], ... follow order.
-void append_rows_in_order(const std::vector<Neighbours>& pieces, const std::vector<PointIndex>& order,
-                          Neighbours& out);
 /// Sorts each query's entries by (sq_dist, index) and keeps at most k of them.
 void sort_and_truncate(std::size_t k, Neighbours& out);
 
