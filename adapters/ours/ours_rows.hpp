@@ -10,6 +10,7 @@
 #include "ours/query_order.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -49,19 +50,17 @@ struct MortonScratch {
   ours::QueryOrder order;
   std::vector<double> sorted_xyz;  ///< the queries in Morton order
   Neighbours answered;             ///< their rows, in that order
-  std::vector<Box> share_boxes;    ///< on threads: the box of each member's share (lo.x infinite: empty)
+  std::vector<Box> share_boxes;    ///< on threads: the box of each member's share
 
-  /// The box of every share.
+  /// The box of every share (an empty share's box is lo = +inf, hi = -inf, which joins to nothing).
   Box joined_box() const {
-    Box all{{0, 0, 0}, {0, 0, 0}};
-    bool any = false;
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    Box all{{inf, inf, inf}, {-inf, -inf, -inf}};
     for (const Box& box : share_boxes) {
-      if (box.first[0] == std::numeric_limits<double>::infinity()) continue;
       for (int d = 0; d < 3; ++d) {
-        all.first[d] = any ? std::min(all.first[d], box.first[d]) : box.first[d];
-        all.second[d] = any ? std::max(all.second[d], box.second[d]) : box.second[d];
+        all.first[d] = std::min(all.first[d], box.first[d]);
+        all.second[d] = std::max(all.second[d], box.second[d]);
       }
-      any = true;
     }
     return all;
   }
@@ -90,17 +89,18 @@ inline void morton_order_on_team(const Cloud& queries, const Team& team, std::ve
   MortonScratch* scratch = team.scratch<MortonScratch>();  // used in bodies only: null if its phase failed
   const std::pair<std::size_t, std::size_t> mine = team.share(n);
   team.phase([&] {
+    constexpr double inf = std::numeric_limits<double>::infinity();
     MortonScratch::Box& box = scratch->share_boxes[static_cast<std::size_t>(team.member())];
-    box.first = box.second = {std::numeric_limits<double>::infinity(), 0, 0};  // marks an empty share
+    box = {{inf, inf, inf}, {-inf, -inf, -inf}};
     if (mine.second > mine.first) {
       ours::bounding_box(queries.data() + 3 * mine.first, mine.second - mine.first, box.first, box.second);
     }
   });
-  const auto grid = [&] {  // the same on every member
-    const MortonScratch::Box all = scratch->joined_box();
-    return ours::morton_grid(all.first, all.second);
-  };
-  team.phase([&] { ours::morton_keys(queries.data(), mine.first, mine.second, grid(), scratch->order.keys.data()); });
+  team.phase([&] {
+    const MortonScratch::Box all = scratch->joined_box();  // the same on every member
+    ours::morton_keys(queries.data(), mine.first, mine.second, ours::morton_grid(all.first, all.second),
+                      scratch->order.keys.data());
+  });
   team.phase([&] {
     if (team.member() == 0) ours::sort_morton_keys(scratch->order);
   });
