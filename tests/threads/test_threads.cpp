@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <initializer_list>
 #include <random>
 #include <stdexcept>
 #include <thread>
@@ -233,15 +234,22 @@ TEST(Team, SharesCoverEveryItemOnce) {
 
 // The Morton order a team finds (each member the box and keys of its share) is the one ours::morton_order
 // finds alone, for batches whose grids differ in size.
+// Both radix widths (batches under and over 2^15); the repeated points put equal codes in every share,
+// which a pass split over shares must keep in the caller's order, as the serial sort does.
 TEST(Team, MortonOrderOnATeamIsTheSerialOne) {
   for (const Eigen::Index n : {Eigen::Index(300), Eigen::Index(5000), Eigen::Index(40000)}) {
-    const Cloud queries = cube_points(n, 9);
-    ours::QueryOrder alone;
-    ours::morton_order(queries.data(), static_cast<std::size_t>(n), alone);
-    for (const int size : {2, 3}) {
-      std::vector<nnb::PointIndex> order(static_cast<std::size_t>(n));
-      on_team(size, [&](const nnb::Team& team) { nnb::adapters::ours_rows::morton_order_on_team(queries, team, order); });
-      EXPECT_EQ(order, alone.order) << n << " queries on " << size << " threads";
+    const Cloud scattered = cube_points(n, 9);
+    Cloud repeated(3, n);
+    for (Eigen::Index i = 0; i < n; ++i) repeated.col(i) = scattered.col(i % 37);
+    for (const Cloud* queries : std::initializer_list<const Cloud*>{&scattered, &repeated}) {
+      ours::QueryOrder alone;
+      ours::morton_order(queries->data(), static_cast<std::size_t>(n), alone);
+      for (const int size : {2, 3, 7}) {
+        std::vector<nnb::PointIndex> order(static_cast<std::size_t>(n));
+        on_team(size, [&](const nnb::Team& team) { nnb::adapters::ours_rows::morton_order_on_team(*queries, team, order); });
+        EXPECT_EQ(order, alone.order) << n << " queries on " << size << " threads"
+                                      << (queries == &repeated ? ", repeated points" : "");
+      }
     }
   }
 }
