@@ -52,10 +52,15 @@ struct MortonScratch {
   Neighbours answered;             ///< their rows, in that order
   std::vector<Box> share_boxes;    ///< on threads: the box of each member's share
 
-  /// The box of every share (an empty share's box is lo = +inf, hi = -inf, which joins to nothing).
-  Box joined_box() const {
+  /// An empty share's box: lo = +inf, hi = -inf, which joins to nothing.
+  static Box empty_box() {
     constexpr double inf = std::numeric_limits<double>::infinity();
-    Box all{{inf, inf, inf}, {-inf, -inf, -inf}};
+    return {{inf, inf, inf}, {-inf, -inf, -inf}};
+  }
+
+  /// The box of every share.
+  Box joined_box() const {
+    Box all = empty_box();
     for (const Box& box : share_boxes) {
       for (int d = 0; d < 3; ++d) {
         all.first[d] = std::min(all.first[d], box.first[d]);
@@ -89,9 +94,8 @@ inline void morton_order_on_team(const Cloud& queries, const Team& team, std::ve
   MortonScratch* scratch = team.scratch<MortonScratch>();  // used in bodies only: null if its phase failed
   const std::pair<std::size_t, std::size_t> mine = team.share(n);
   team.phase([&] {
-    constexpr double inf = std::numeric_limits<double>::infinity();
     MortonScratch::Box& box = scratch->share_boxes[static_cast<std::size_t>(team.member())];
-    box = {{inf, inf, inf}, {-inf, -inf, -inf}};
+    box = MortonScratch::empty_box();
     if (mine.second > mine.first) {
       ours::bounding_box(queries.data() + 3 * mine.first, mine.second - mine.first, box.first, box.second);
     }

@@ -233,9 +233,8 @@ TEST(Team, SharesCoverEveryItemOnce) {
 }
 
 // The Morton order a team finds (each member the box and keys of its share) is the one ours::morton_order
-// finds alone, for batches whose grids differ in size.
-// Both radix widths (batches under and over 2^15); the repeated points put equal codes in every share,
-// which a pass split over shares must keep in the caller's order, as the serial sort does.
+// finds alone: both radix widths (batches under and over 2^15), and repeated points, whose equal codes in
+// every share keep the caller's order.
 TEST(Team, MortonOrderOnATeamIsTheSerialOne) {
   for (const Eigen::Index n : {Eigen::Index(300), Eigen::Index(5000), Eigen::Index(40000)}) {
     const Cloud scattered = cube_points(n, 9);
