@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -122,6 +123,30 @@ TEST(CoordinateRange, EveryAdapterRefusesModelAndQueriesBeyondTheBound) {
     index->build(near);
     nnb::Neighbours out;
     expect_input_error([&] { index->knn(far, 1, out); }, {name, "query cloud", "point 0"});
+  }
+}
+
+TEST(CoordinateRange, ABadPointAmongGoodOnesIsNamed) {
+  // One bad coordinate anywhere in a cloud of good ones: refused, naming that point.
+  const Cloud good = random_cloud(1000, 1.0, 8);
+  for (const std::string name : {"brute_force", "ours_kdtree"}) {
+    auto index = nnb::make_adapter(name, {});
+    Cloud model = good;
+    model(0, 3) = -std::numeric_limits<double>::infinity();
+    expect_input_error([&] { index->build(model); }, {name, "model point 3", "non-finite"});
+    model(0, 3) = 0.5;
+    model(2, 998) = -2e15;
+    expect_input_error([&] { index->build(model); }, {name, "model cloud", "point 998", "1e+15"});
+    index->build(good);
+    nnb::Neighbours out;
+    Cloud queries = good;
+    queries(1, 517) = std::numeric_limits<double>::quiet_NaN();
+    expect_input_error([&] { index->ranged(queries, 1, 0.1, out); }, {name, "query point 517", "non-finite"});
+    queries(1, 517) = 0.25;
+    queries(0, 999) = 1.5e15;
+    expect_input_error([&] { index->knn(queries, 1, out); }, {name, "query cloud", "point 999", "1e+15"});
+    queries(0, 999) = nnb::kMaxAbsCoordinate_m;  // at the bound: accepted
+    EXPECT_NO_THROW(index->knn(queries, 1, out)) << name;
   }
 }
 
