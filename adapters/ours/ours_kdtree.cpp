@@ -8,10 +8,9 @@
 namespace nnb::adapters {
 namespace {
 
-// Measured on the Figure 3 and SICK pairs (bench/micro_nns): 48-64 are the fastest at every distance
-// since scan-ordered queries reuse the last descent (32 is 5-20 % slower); far larger buckets than
-// libnabo's 5 pay off here.
-constexpr int kDefaultBucketSize = 48;
+// Measured on every pair in both orders (bench/micro_nns, ours/README.md): 64 is the fastest of 32-96
+// since scan-ordered queries reuse the last descent; far larger buckets than libnabo's 5 pay off here.
+constexpr int kDefaultBucketSize = 64;
 
 class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {
  public:
