@@ -150,10 +150,6 @@ const Clouds& clouds(const std::string& pair) {
   return loaded.emplace(pair, std::move(c)).first->second;
 }
 
-bool built_in(const std::string& name) {
-  static const std::vector<std::string> built = nnb::adapter_names();
-  return std::find(built.begin(), built.end(), name) != built.end();
-}
 
 // Marks the benchmark skipped (with why) when its pair could not be loaded; returns whether it was.
 bool skipped(benchmark::State& state, const Clouds& c) {
@@ -203,7 +199,7 @@ void bench_icp_step(benchmark::State& state, const std::string& pair) {
   const Clouds& c = clouds(pair);
   if (skipped(state, c)) return;
   // The pairs are what any exact adapter finds; ours finds them in milliseconds, brute force in minutes.
-  auto index = nnb::make_adapter(built_in("ours_kdtree") ? "ours_kdtree" : "brute_force", {});
+  auto index = nnb::make_adapter(nnb::adapter_built_in("ours_kdtree") ? "ours_kdtree" : "brute_force", {});
   index->build(c.model);
   nnb::Neighbours pairs;
   index->ranged(c.queries, 1, kIcpStepDistM, pairs);
@@ -256,26 +252,26 @@ Subjects subjects() {
   std::vector<std::string> skipped;
   for (const auto& list : {kOurs, kAnchors}) {
     for (const std::string& name : list) {
-      if (built_in(name)) all.everywhere.push_back({name, name, {}});
+      if (nnb::adapter_built_in(name)) all.everywhere.push_back({name, name, {}});
       else skipped.push_back(name);
     }
   }
   // What answering in Morton order is worth (ours choose by default): always the caller's order, and
   // always Morton order.
   for (const std::string& name : kOurs) {
-    if (!built_in(name)) continue;
+    if (!nnb::adapter_built_in(name)) continue;
     all.everywhere.push_back({name + "[order=caller]", name, {{"order", "caller"}}});
     all.fig3_and_sick.push_back({name + "[order=morton]", name, {{"order", "morton"}}});
   }
   for (const char* name : {"flann_kdtree", "pcl_octree", "ann_kdtree"}) {
-    if (built_in(name)) all.fig3_and_sick.push_back({name, name, {}});
+    if (nnb::adapter_built_in(name)) all.fig3_and_sick.push_back({name, name, {}});
     else skipped.push_back(name);
   }
   // Each tree's bucket parameter as it declares it, with the sizes worth comparing with its default.
   const std::pair<const char*, std::vector<const char*>> variants[] = {
       {"ours_kdtree", {"8", "16", "32", "48", "96"}}, {"ours_octree", {"16", "32", "48", "64", "96", "128"}}};
   for (const auto& [name, sizes] : variants) {
-    if (!built_in(name)) continue;
+    if (!nnb::adapter_built_in(name)) continue;
     all.fig3_and_sick.push_back({std::string(name) + "[float]", name, {{"scalar", "float"}}});
     const std::string bucket = nnb::make_adapter(name, {})->info().bucket->name;
     for (const char* size : sizes) {
@@ -319,7 +315,7 @@ void register_all(const Subjects& all) {
   }
   for (const std::string& p : {std::string("fig3"), std::string(kCityScan)}) {
     const Subject s{kThreadedBuild, kThreadedBuild, {}};
-    for (int t = 2; t <= max_threads() && built_in(kThreadedBuild); ++t) {
+    for (int t = 2; t <= max_threads() && nnb::adapter_built_in(kThreadedBuild); ++t) {
       ms(benchmark::RegisterBenchmark(build_name(p, s.label, t).c_str(),
                                       [s, p, t](benchmark::State& st) { bench_build(st, s, p, t); })
              ->UseRealTime());
@@ -513,7 +509,7 @@ void print_threaded_builds(const RatioReporter& r) {
 
 void print_targets(const RatioReporter& r) {
   Tally tally;
-  if (!built_in("nanoflann_latest")) {
+  if (!nnb::adapter_built_in("nanoflann_latest")) {
     std::printf("\nnanoflann_latest is not built in (configure with NNB_NANOFLANN_LATEST_DIR, see scripts/anchors.sh): "
                 "the anchor is Debian's nanoflann alone.\n");
   }
@@ -531,7 +527,7 @@ void print_memory(const Subjects& all) {
   const nnb::Cloud& model = clouds("fig3").model;
   const double n = double(model.cols());
   std::printf("\nIndex memory per model point (fig3 model, %d points):\n", int(model.cols()));
-  if (built_in("ours_kdtree") && built_in("ours_octree")) {
+  if (nnb::adapter_built_in("ours_kdtree") && nnb::adapter_built_in("ours_octree")) {
     // The adapters' defaults (double scalar), built directly to see the parts.
     const int bucket = nnb::make_adapter("ours_kdtree", {})->info().bucket->value;
     const int leaf = nnb::make_adapter("ours_octree", {})->info().bucket->value;

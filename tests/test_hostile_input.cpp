@@ -8,7 +8,6 @@
 
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -132,8 +131,7 @@ TEST(CoordinateRange, ABadPointAmongGoodOnesIsNamed) {
   // One bad coordinate anywhere in a cloud of good ones: refused, naming that point.
   const Cloud good = random_cloud(1000, 1.0, 8);
   std::vector<std::string> names{"brute_force"};
-  const auto built = nnb::adapter_names();  // ours only when built (NNB_WITH_OURS)
-  if (std::find(built.begin(), built.end(), "ours_kdtree") != built.end()) names.emplace_back("ours_kdtree");
+  if (nnb::adapter_built_in("ours_kdtree")) names.emplace_back("ours_kdtree");  // NNB_WITH_OURS
   for (const std::string& name : names) {
     auto index = nnb::make_adapter(name, {});
     Cloud model = good;

@@ -330,9 +330,8 @@ struct RealCase {
 };
 
 std::string fast_exact_adapter() {
-  const auto names = nnb::adapter_names();
   for (const char* preferred : {"nanoflann_kdtree", "ours_kdtree", "flann_kdtree", "ann_kdtree"}) {
-    if (std::find(names.begin(), names.end(), preferred) != names.end()) return preferred;
+    if (nnb::adapter_built_in(preferred)) return preferred;
   }
   return "brute_force";
 }

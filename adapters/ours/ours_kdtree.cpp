@@ -8,8 +8,8 @@
 namespace nnb::adapters {
 namespace {
 
-// Measured on every pair in both orders (bench/micro_nns, ours/README.md): 64 is the fastest of 32-96
-// since scan-ordered queries reuse the last descent; far larger buckets than libnabo's 5 pay off here.
+// Measured on every pair in both orders (bench/micro_nns, ours/README.md): 64 beats 48 and 80, as
+// scan-ordered queries reuse the last descent; far larger buckets than libnabo's 5 pay off here.
 constexpr int kDefaultBucketSize = 64;
 
 class OursKdTree final : public ours_rows::OursIndex<ours::KdTree> {

@@ -20,6 +20,8 @@ struct AdapterEntry {
 const std::vector<AdapterEntry>& adapter_registry();
 /// The names of every adapter built in.
 std::vector<std::string> adapter_names();
+/// Whether the named adapter is built in (adapters are optional at configure time).
+bool adapter_built_in(const std::string& name);
 /// Creates the named adapter; throws InputError for an unknown name or bad parameters.
 std::unique_ptr<SearchIndex> make_adapter(const std::string& name, const Params& params = {});
 
