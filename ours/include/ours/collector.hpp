@@ -76,6 +76,53 @@ struct DefaultInit : std::allocator<U> {
   }
 };
 
+/// Raw memory from DefaultInit (huge pages for large blocks) that holds arrays of different types in
+/// turn: as<U>() starts the lifetime of an array of U (ending whatever lived there). A build's scratch
+/// arrays can then live in the pages of its final arrays, which are faulted in once instead of twice.
+class ReusableBlock {
+ public:
+  ReusableBlock() = default;
+  ReusableBlock(const ReusableBlock&) = delete;
+  ReusableBlock& operator=(const ReusableBlock&) = delete;
+  ReusableBlock(ReusableBlock&& other) noexcept { swap(other); }
+  ReusableBlock& operator=(ReusableBlock&& other) noexcept {
+    swap(other);
+    return *this;
+  }
+  ~ReusableBlock() { release(); }
+
+  /// Replaces the memory by a block of at least `bytes` bytes, aligned for any scalar.
+  void assign(std::size_t bytes) {
+    release();
+    words_ = (bytes + sizeof(Word) - 1) / sizeof(Word);
+    if (words_ > 0) data_ = DefaultInit<Word>().allocate(words_);
+  }
+  void release() {
+    if (data_) DefaultInit<Word>().deallocate(data_, words_);
+    data_ = nullptr;
+    words_ = 0;
+  }
+  std::size_t bytes() const { return words_ * sizeof(Word); }
+
+  /// Starts `count` Us (left uninitialised) at byte `offset`, a multiple of alignof(U), and returns the first.
+  template <typename U>
+  U* as(std::size_t offset, std::size_t count) {
+    static_assert(std::is_trivially_destructible_v<U> && alignof(U) <= alignof(Word), "plain scalars only");
+    U* first = reinterpret_cast<U*>(reinterpret_cast<unsigned char*>(data_) + offset);
+    std::uninitialized_default_construct_n(first, count);
+    return std::launder(first);
+  }
+
+ private:
+  using Word = std::uint64_t;
+  void swap(ReusableBlock& other) noexcept {
+    std::swap(data_, other.data_);
+    std::swap(words_, other.words_);
+  }
+  Word* data_ = nullptr;
+  std::size_t words_ = 0;
+};
+
 /// The bounding box (lo, hi) of n > 0 points (x,y,z triples), two points a step: six independent
 /// running minima and maxima instead of three chains of dependent ones.
 inline void bounding_box(const double* xyz, std::size_t n, std::array<double, 3>& lo, std::array<double, 3>& hi) {
