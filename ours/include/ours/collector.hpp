@@ -102,7 +102,6 @@ class ReusableBlock {
     data_ = nullptr;
     words_ = 0;
   }
-  std::size_t bytes() const { return words_ * sizeof(Word); }
 
   /// Starts `count` Us (left uninitialised) at byte `offset`, a multiple of alignof(U), and returns the first.
   template <typename U>
