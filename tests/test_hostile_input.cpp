@@ -153,6 +153,32 @@ TEST(CoordinateRange, ABadPointAmongGoodOnesIsNamed) {
   }
 }
 
+// On threads each checks its own share of the queries, yet the message names the point one thread names:
+// the first non-finite one, else the first out of range, in whichever share they lie.
+TEST(CoordinateRange, ABadQueryOnThreadsIsNamedAsOnOne) {
+  const Cloud good = random_cloud(2000, 1.0, 9);
+  std::vector<std::string> names{"brute_force"};
+  if (nnb::adapter_built_in("ours_kdtree")) names.emplace_back("ours_kdtree");  // NNB_WITH_OURS
+  for (const std::string& name : names) {
+    auto index = nnb::make_adapter(name, {});
+    index->build(good);
+    nnb::Neighbours out;
+    for (const int threads : {2, 3}) {
+      index->set_threads(threads);
+      const std::string where = name + " on " + std::to_string(threads) + " threads";
+      Cloud queries = good;
+      queries(2, 1700) = 3e15;
+      expect_input_error([&] { index->knn(queries, 1, out); }, {name, "query cloud", "point 1700", "1e+15"});
+      queries(0, 200) = -2e15;
+      expect_input_error([&] { index->ranged(queries, 1, 0.1, out); }, {name, "query cloud", "point 200", "1e+15"});
+      queries(1, 1900) = std::numeric_limits<double>::infinity();
+      expect_input_error([&] { index->knn(queries, 1, out); }, {name, "query point 1900", "non-finite"});
+      EXPECT_NO_THROW(index->knn(good, 1, out)) << where;
+      EXPECT_EQ(out.n_queries(), 2000u) << where;
+    }
+  }
+}
+
 // Every exact adapter answers k-NN (k = 3), ranged search with each of its strategies and radius search at
 // dist_m exactly as brute force does on (model, queries).
 void expect_every_exact_adapter_as_brute_force(const Cloud& model, const Cloud& queries, double dist_m) {

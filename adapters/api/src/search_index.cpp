@@ -1,17 +1,18 @@
 #include "nnb/search_index.hpp"
 
+#include "nnb/worker_pool.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <charconv>
 #include <cmath>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <system_error>
-#include <thread>
 
 namespace nnb {
 
@@ -131,6 +132,19 @@ void SearchIndex::check_queries(const Cloud& queries) const {
   check_coordinate_range(queries, info_.name + ": query cloud");
 }
 
+// check_queries with the coordinates' check shared by a team: a query out of range (or not finite) in any
+// member's share makes member 0 run check_queries alone, so the message is the one a single thread gives.
+void SearchIndex::check_queries_on(const Team& team, const Cloud& queries, std::atomic<bool>& out_of_range) const {
+  team.phase([&] {
+    const std::pair<std::size_t, std::size_t> mine = team.share(static_cast<std::size_t>(queries.cols()));
+    const auto first = static_cast<Eigen::Index>(mine.first), last = static_cast<Eigen::Index>(mine.second);
+    if (first_out_of_range(queries, first, last) >= 0) out_of_range.store(true, std::memory_order_relaxed);
+  });
+  team.phase([&] {
+    if (team.member() == 0 && out_of_range.load(std::memory_order_relaxed)) check_queries(queries);
+  });
+}
+
 void SearchIndex::check_supported(SearchKind kind) const {
   if (info_.strategy(kind) == Strategy::unsupported) {
     throw InputError(info_.name + " does not answer " + to_string(kind) + " search");
@@ -240,9 +254,11 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
   const Eigen::Index most = std::max<Eigen::Index>(1, n / kMinQueriesPerThread);
   const int threads = info_.concurrency == Concurrency::queries ? static_cast<int>(std::min<Eigen::Index>(threads_, most)) : 1;
   if (threads == 1) {
+    check_queries(queries);
     answer(queries, 0, out);
     return;
   }
+  if (model_size_ == 0) check_queries(queries);  // throws before any thread starts; the coordinates: below
   const std::vector<Eigen::Index> starts = slice_starts(n, threads, kMinQueriesPerThread);
   std::vector<Neighbours> rows(starts.size() - 1);
   std::vector<int> answered_by(rows.size());
@@ -250,22 +266,19 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
   out.offsets.resize(static_cast<std::size_t>(n) + 1);
   std::atomic<std::size_t> next{0};
   Team::Shared shared;
-  const auto work = [&](int member) {
+  std::atomic<bool> out_of_range{false};
+  const std::function<void(int)> work = [&](int member) {
     const Team team(member, shared);
+    check_queries_on(team, queries, out_of_range);
     if (may_reorder) slicing_order(queries, team, order);
     team.phase([&] { answer_slices(queries, starts, order, answer, member, next, rows, answered_by); });
     return_rows(team, starts, order, rows, answered_by, out);
   };
-  std::vector<std::thread> workers;
-  workers.reserve(static_cast<std::size_t>(threads - 1));
-  try {
-    while (static_cast<int>(workers.size()) < threads - 1) workers.emplace_back(work, static_cast<int>(workers.size()) + 1);
-  } catch (const std::system_error&) {
-    // No more threads to be had: those running, this one included, are the team.
-  }
-  shared.size.store(static_cast<int>(workers.size()) + 1, std::memory_order_release);
+  const WorkerPool::ForBatch pool;
+  const int helpers = pool.pool().start(threads - 1, work);  // those running, this thread included, are the team
+  shared.size.store(helpers + 1, std::memory_order_release);
   work(0);
-  for (auto& worker : workers) worker.join();
+  pool.pool().finish();
   if (shared.error) std::rethrow_exception(shared.error);
 }
 
@@ -274,7 +287,6 @@ void SearchIndex::slicing_order(const Cloud&, const Team&, std::vector<PointInde
 void SearchIndex::knn(const Cloud& queries, int k, Neighbours& out) const {
   check_supported(SearchKind::knn);
   check_k(info_.name, k);
-  check_queries(queries);
   k = useful_k(k);
   answer_in_slices(queries, out, [&](const Cloud& slice, Eigen::Index, Neighbours& rows) { do_knn(slice, k, rows); });
 }
@@ -282,7 +294,6 @@ void SearchIndex::knn(const Cloud& queries, int k, Neighbours& out) const {
 void SearchIndex::radius(const Cloud& queries, double radius_m, Neighbours& out) const {
   check_supported(SearchKind::radius);
   check_distance(info_.name, "radius", radius_m);
-  check_queries(queries);
   answer_in_slices(queries, out,
                    [&](const Cloud& slice, Eigen::Index, Neighbours& rows) { do_radius(slice, radius_m, rows); });
 }
@@ -305,7 +316,6 @@ void SearchIndex::ranged_hinted(const Cloud& queries, double max_dist_m, const s
   }
   check_supported(SearchKind::ranged);
   check_distance(info_.name, "max_dist", max_dist_m);
-  check_queries(queries);
   answer_in_slices(queries, out, [&](const Cloud& slice, Eigen::Index first, Neighbours& rows) {
     if (slice.cols() == queries.cols()) return do_ranged_hinted(slice, max_dist_m, hints, rows);
     const auto begin = hints.begin() + first;
@@ -327,7 +337,6 @@ void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbo
   check_offered(info_, SearchKind::ranged, strategy);
   check_k(info_.name, k);
   check_distance(info_.name, "max_dist", max_dist_m);
-  check_queries(queries);
   k = useful_k(k);
   answer_in_slices(queries, out, [&](const Cloud& slice, Eigen::Index, Neighbours& rows) {
     switch (strategy) {

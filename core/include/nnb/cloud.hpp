@@ -39,15 +39,18 @@ inline Eigen::Index first_non_finite(const Cloud& cloud) {
 /// distances overflow (PCL answered wrongly at 1e20), and at 1e200 double squares overflow too.
 inline constexpr double kMaxAbsCoordinate_m = 1e15;
 
-/// Returns the index of the first point with a coordinate beyond kMaxAbsCoordinate_m, or -1.
-inline Eigen::Index first_out_of_range(const Cloud& cloud) {
-  for (Eigen::Index i = 0; i < cloud.cols(); ++i) {
+/// Returns the index of the first point of [first, last) with a coordinate beyond kMaxAbsCoordinate_m
+/// (non-finite ones included), or -1.
+inline Eigen::Index first_out_of_range(const Cloud& cloud, Eigen::Index first, Eigen::Index last) {
+  for (Eigen::Index i = first; i < last; ++i) {
     for (int d = 0; d < 3; ++d) {
       if (!(std::abs(cloud(d, i)) <= kMaxAbsCoordinate_m)) return i;  // NaN fails too
     }
   }
   return -1;
 }
+
+inline Eigen::Index first_out_of_range(const Cloud& cloud) { return first_out_of_range(cloud, 0, cloud.cols()); }
 
 /// Throws InputError naming what (a file, "query cloud"...) and the first point whose coordinates are
 /// non-finite or beyond kMaxAbsCoordinate_m, so that no library ever sees them.

@@ -8,6 +8,7 @@
 #include "nnb/neighbours.hpp"
 #include "nnb/team.hpp"
 
+#include <atomic>
 #include <cstddef>
 #include <functional>
 #include <map>
@@ -162,6 +163,7 @@ class SearchIndex {
 
  private:
   void check_queries(const Cloud& queries) const;
+  void check_queries_on(const Team& team, const Cloud& queries, std::atomic<bool>& out_of_range) const;
   int useful_k(int k) const;
   void check_supported(SearchKind kind) const;
   /// Answers a batch with answer(slice, first query of the slice, rows), split over threads_used()

@@ -1,8 +1,8 @@
 #pragma once
 // The threads answering one batch together. Each runs the same code with its own member number, in
 // phases: phase(body) runs body on this member, then waits until every member has finished the phase (a
-// barrier), so that one spawn serves every step of a batch (ordering the queries, answering slices,
-// returning the rows) and what a member wrote in a phase is seen by all in the next. A body that throws
+// barrier), so that one start of the team serves every step of a batch (ordering the queries, answering
+// slices, returning the rows) and what a member wrote in a phase is seen by all in the next. A body that throws
 // still reaches the barrier (no member waits forever); the first exception is kept for the caller, and
 // later bodies are skipped.
 #include <atomic>

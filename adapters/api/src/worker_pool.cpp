@@ -1,0 +1,80 @@
+#include "nnb/worker_pool.hpp"
+
+#include <algorithm>
+#include <system_error>
+
+namespace nnb {
+
+namespace {
+// The caller's wait at finish() is short (the helpers are past the batch's last barrier): it spins this
+// many times before it sleeps.
+constexpr int kSpinsBeforeSleep = 1 << 14;
+}  // namespace
+
+namespace {
+// The calling thread's pools; the first `in_use` serve its batches under way (nested ones: last in, first out).
+thread_local std::vector<std::unique_ptr<WorkerPool>> pools;
+thread_local std::size_t in_use = 0;
+}  // namespace
+
+WorkerPool::ForBatch::ForBatch() {
+  if (in_use == pools.size()) pools.push_back(std::make_unique<WorkerPool>());
+  pool_ = pools[in_use++].get();
+}
+
+WorkerPool::ForBatch::~ForBatch() { --in_use; }
+
+int WorkerPool::start(int helpers, const std::function<void(int)>& job) {
+  while (static_cast<int>(threads_.size()) < helpers) {
+    try {
+      threads_.emplace_back(&WorkerPool::serve, this, static_cast<int>(threads_.size()) + 1, round_);
+    } catch (const std::system_error&) {
+      break;  // no more threads to be had: those there are do the work
+    }
+  }
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    job_ = &job;
+    helpers_ = std::min(helpers, static_cast<int>(threads_.size()));
+    running_.store(helpers_, std::memory_order_relaxed);
+    ++round_;
+  }
+  wake_.notify_all();
+  return helpers_;
+}
+
+void WorkerPool::finish() {
+  for (int spins = 0; running_.load(std::memory_order_acquire) != 0; ++spins) {
+    if (spins < kSpinsBeforeSleep) continue;
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [&] { return running_.load(std::memory_order_acquire) == 0; });
+  }
+}
+
+void WorkerPool::serve(int member, unsigned round_seen) {
+  for (;;) {
+    const std::function<void(int)>* job = nullptr;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || round_ != round_seen; });
+      if (stop_) return;
+      round_seen = round_;
+      if (member > helpers_) continue;  // this round needs fewer threads
+      job = job_;
+    }
+    (*job)(member);
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (running_.fetch_sub(1, std::memory_order_acq_rel) == 1) done_.notify_one();
+  }
+}
+
+WorkerPool::~WorkerPool() {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  for (std::thread& thread : threads_) thread.join();
+}
+
+}  // namespace nnb
