@@ -3,6 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
 #include <limits>
 
 namespace {
@@ -138,6 +143,31 @@ TEST(Helpers, SortAndTruncateAndFilter) {
   nnb::filter_by_sq_dist(1.0, n);
   EXPECT_EQ(n.count(0), 1u);
   EXPECT_EQ(n.total(), 1u);
+}
+
+// Threads are kept between batches, but a process forked from one that has them gets none of them: the
+// child answers on threads of its own, as the parent did, and exits (its pools let go, not joined).
+TEST(Threads, AForkedChildAnswersOnThreadsOfItsOwnAndExits) {
+  Cloud model(3, 3000), queries(3, 2000);
+  for (Eigen::Index i = 0; i < model.cols(); ++i) model.col(i) << 0.001 * i, std::sin(0.01 * i), 0.0;
+  for (Eigen::Index i = 0; i < queries.cols(); ++i) queries.col(i) << 0.0015 * i, std::cos(0.02 * i), 0.1;
+  auto index = nnb::make_adapter("brute_force");
+  index->build(model);
+  index->set_threads(2);
+  Neighbours parent;
+  index->knn(queries, 2, parent);  // the parent's pool starts its threads
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::alarm(60);  // a child waiting for threads it does not have is killed, and the test fails
+    Neighbours child;
+    index->knn(queries, 2, child);
+    std::exit(child.indices == parent.indices && child.sq_dists == parent.sq_dists ? 0 : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status)) << "the child was killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "the child's answers differ from the parent's";
 }
 
 }  // namespace

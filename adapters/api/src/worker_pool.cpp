@@ -12,17 +12,31 @@ constexpr int kSpinsBeforeSleep = 1 << 14;
 }  // namespace
 
 namespace {
-// The calling thread's pools; the first `in_use` serve its batches under way (nested ones: last in, first out).
-thread_local std::vector<std::unique_ptr<WorkerPool>> pools;
-thread_local std::size_t in_use = 0;
+// The calling thread's pools; the first `in_use` serve its batches under way (nested ones: last in, first
+// out). In a child forked from a process that had pools, the pools' threads were not forked with them:
+// those pools are let go without being touched (their mutexes and condition variables may be in any
+// state), never joined or destroyed.
+struct Pools {
+  std::vector<std::unique_ptr<WorkerPool>> list;
+  std::size_t in_use = 0;
+  ~Pools() {
+    for (auto& pool : list) {
+      if (pool->forked()) (void)pool.release();
+    }
+  }
+};
+thread_local Pools pools;
 }  // namespace
 
 WorkerPool::ForBatch::ForBatch() {
-  if (in_use == pools.size()) pools.push_back(std::make_unique<WorkerPool>());
-  pool_ = pools[in_use++].get();
+  if (pools.in_use == pools.list.size()) pools.list.push_back(nullptr);
+  std::unique_ptr<WorkerPool>& pool = pools.list[pools.in_use++];
+  if (pool && pool->forked()) (void)pool.release();
+  if (!pool) pool = std::make_unique<WorkerPool>();
+  pool_ = pool.get();
 }
 
-WorkerPool::ForBatch::~ForBatch() { --in_use; }
+WorkerPool::ForBatch::~ForBatch() { --pools.in_use; }
 
 int WorkerPool::start(int helpers, const std::function<void(int)>& job) {
   while (static_cast<int>(threads_.size()) < helpers) {

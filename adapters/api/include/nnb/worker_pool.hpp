@@ -9,6 +9,8 @@
 #include <thread>
 #include <vector>
 
+#include <unistd.h>
+
 namespace nnb {
 
 class WorkerPool {
@@ -34,7 +36,10 @@ class WorkerPool {
   /// Waits until every job of the last start() has returned.
   void finish();
 
-  WorkerPool() = default;
+  /// Whether this process is a child forked from the one that made the pool.
+  bool forked() const { return owner_ != ::getpid(); }
+
+  WorkerPool() : owner_(::getpid()) {}
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
   ~WorkerPool();
@@ -50,6 +55,7 @@ class WorkerPool {
   unsigned round_ = 0;  ///< counts start()s
   bool stop_ = false;
   std::atomic<int> running_{0};  ///< helpers whose job of this round has not returned
+  pid_t owner_;
 };
 
 }  // namespace nnb
