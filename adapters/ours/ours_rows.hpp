@@ -81,14 +81,14 @@ inline MortonScratch& morton_scratch() {
 }
 
 /// order (sized to the batch) = the queries' Morton order, as ours::morton_order makes it, found by a
-/// team: each member the box, the keys and the sort of its share (in member 0's MortonScratch).
+/// team: each member the box and the keys of its share, member 0 the sort (in its MortonScratch).
 inline void morton_order_on_team(const Cloud& queries, const Team& team, std::vector<PointIndex>& order) {
   const auto n = static_cast<std::size_t>(queries.cols());
   team.phase([&] {
     if (team.member() != 0) return;
     MortonScratch& scratch = morton_scratch();
     scratch.share_boxes.resize(static_cast<std::size_t>(team.size()));
-    ours::size_for_sort(n, team.size(), scratch.order);
+    scratch.order.keys.resize(n);
     team.publish(scratch);
   });
   MortonScratch* scratch = team.scratch<MortonScratch>();  // used in bodies only: null if its phase failed
@@ -105,9 +105,10 @@ inline void morton_order_on_team(const Cloud& queries, const Team& team, std::ve
     ours::morton_keys(queries.data(), mine.first, mine.second, ours::morton_grid(all.first, all.second),
                       scratch->order.keys.data());
   });
-  ours::sort_morton_keys_shared(n, scratch != nullptr ? &scratch->order : nullptr, team.size(), team.member(),
-                                mine.first, mine.second, [&](auto&& body) { team.phase(body); });
-  team.phase([&] { ours::indices_of_keys(ours::sorted_keys(scratch->order), mine.first, mine.second, order.data()); });
+  team.phase([&] {
+    if (team.member() == 0) ours::sort_morton_keys(scratch->order);
+  });
+  team.phase([&] { ours::indices_of_keys(scratch->order.keys, mine.first, mine.second, order.data()); });
   if (team.member() == 0 && scratch != nullptr) scratch->release_if_large();
 }
 

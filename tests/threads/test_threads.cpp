@@ -232,9 +232,9 @@ TEST(Team, SharesCoverEveryItemOnce) {
   }
 }
 
-// The Morton order a team finds (each member the box, the keys and the radix sort of its share) is the one
-// ours::morton_order finds alone: both radix widths (batches under and over 2^15: two passes and three),
-// and repeated points, whose equal codes in every share keep the caller's order.
+// The Morton order a team finds (each member the box and keys of its share) is the one ours::morton_order
+// finds alone: both radix widths (batches under and over 2^15), and repeated points, whose equal codes in
+// every share keep the caller's order.
 TEST(Team, MortonOrderOnATeamIsTheSerialOne) {
   for (const Eigen::Index n : {Eigen::Index(300), Eigen::Index(5000), Eigen::Index(40000)}) {
     const Cloud scattered = cube_points(n, 9);

@@ -38,8 +38,7 @@ inline std::uint32_t spread_bits_3(std::uint32_t v) { return detail::kSpread[v &
 struct QueryOrder {
   std::vector<std::uint64_t> keys;     ///< (Morton code << 32) | query index, sorted
   std::vector<std::uint64_t> scratch;  ///< the radix sort's other buffer
-  std::vector<std::uint32_t> counts;   ///< a pass's digit counts, one row per sorting thread
-  std::vector<std::uint32_t> starts;   ///< a pass's write positions, one row per sorting thread
+  std::vector<std::uint32_t> counts;   ///< the radix sort's counts of a pass
   std::vector<std::uint32_t> order;    ///< query indices in Morton order
 };
 
@@ -60,50 +59,25 @@ inline std::uint32_t grid_cell(double x, double lo, double scale) {
 #endif
 }
 
-/// The passes of a radix sort of n keys by the 30 bits above their lower 32. Each pass costs about the same
-/// whatever its width while its counts stay in cache: two passes of 15 bits for large batches (nearly half
-/// the time of three passes of 10 on 60,000 queries), three of 10 for small ones, whose time is then in
-/// clearing and summing 2^15 counts.
-struct RadixPasses {
-  int width;
-  int count;
-  explicit RadixPasses(std::size_t n) : width(n >= (std::size_t(1) << 15) ? 15 : 10), count(30 / width) {}
-  std::size_t digits() const { return std::size_t(1) << width; }
-  int shift(int pass) const { return 32 + pass * width; }
-};
-
-/// counts[d] = how many of the keys [first, last) have digit d at shift.
-inline void count_digits(const std::uint64_t* keys, std::size_t first, std::size_t last, int shift,
-                         const RadixPasses& passes, std::uint32_t* counts) {
-  const std::uint64_t mask = passes.digits() - 1;
-  std::fill(counts, counts + passes.digits(), 0u);
-  for (std::size_t i = first; i < last; ++i) ++counts[(keys[i] >> shift) & mask];
-}
-
-/// Where thread `member` of `members` writes its keys of each digit (starts, one row): after every key of
-/// a smaller digit and after the same digit's keys of the members before it, so the pass stays stable.
-/// counts holds every member's row.
-inline void digit_starts(const std::uint32_t* counts, int members, int member, const RadixPasses& passes,
-                         std::uint32_t* starts) {
-  const std::size_t digits = passes.digits();
-  std::uint32_t before = 0;
-  for (std::size_t d = 0; d < digits; ++d) {
-    std::uint32_t all = 0, earlier = 0;
-    for (int m = 0; m < members; ++m) {
-      const std::uint32_t c = counts[std::size_t(m) * digits + d];
-      all += c;
-      if (m < member) earlier += c;
-    }
-    starts[d] = before + earlier;
-    before += all;
+/// Sorts keys by the 30 bits above their lower 32 in stable passes over the keys. Each pass costs about
+/// the same whatever its width while its counts stay in cache: two passes of 15 bits for large batches
+/// (nearly half the time of three passes of 10 on 60,000 queries), three of 10 for small ones, whose
+/// time is then in clearing and summing 2^15 counts.
+inline void radix_sort_codes(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch,
+                             std::vector<std::uint32_t>& start) {
+  constexpr int kCodeBits = 30;
+  const int width = keys.size() >= (std::size_t(1) << 15) ? 15 : 10;
+  const std::uint64_t mask = (std::uint64_t(1) << width) - 1;
+  start.resize(std::size_t(1) << width);
+  scratch.resize(keys.size());
+  for (int shift = 32; shift < 32 + kCodeBits; shift += width) {
+    std::fill(start.begin(), start.end(), 0u);
+    for (std::uint64_t key : keys) ++start[(key >> shift) & mask];
+    std::uint32_t sum = 0;
+    for (auto& s : start) sum += std::exchange(s, sum);
+    for (std::uint64_t key : keys) scratch[start[(key >> shift) & mask]++] = key;
+    keys.swap(scratch);
   }
-}
-
-/// Moves the keys [first, last) of from to their places in to, by their digit at shift.
-inline void scatter_digits(const std::uint64_t* from, std::size_t first, std::size_t last, int shift,
-                           const RadixPasses& passes, std::uint32_t* starts, std::uint64_t* to) {
-  const std::uint64_t mask = passes.digits() - 1;
-  for (std::size_t i = first; i < last; ++i) to[starts[(from[i] >> shift) & mask]++] = from[i];
 }
 
 }  // namespace detail
@@ -137,49 +111,8 @@ inline void morton_keys(const double* xyz, std::size_t first, std::size_t last, 
   }
 }
 
-/// Sizes out's buffers for a sort of n keys by `members` threads (out.keys is filled by the caller).
-inline void size_for_sort(std::size_t n, int members, QueryOrder& out) {
-  const std::size_t rows = std::size_t(members) * detail::RadixPasses(n).digits();
-  out.keys.resize(n);
-  out.scratch.resize(n);
-  out.counts.resize(rows);
-  out.starts.resize(rows);
-}
-
-/// Sorts the n keys of out->keys by their Morton codes (stable: queries in one cell keep their order) on
-/// thread `member` of `members`, each sorting its share [first, last). phase(body) runs body, then waits
-/// until every member has run its own (a barrier); on one thread it just runs body. Its bodies alone touch
-/// *out, so out may be null where a failed phase makes them skipped. The sorted keys are sorted_keys(*out),
-/// the same on any number of threads.
-template <class Phase>
-void sort_morton_keys_shared(std::size_t n, QueryOrder* out, int members, int member, std::size_t first,
-                             std::size_t last, Phase&& phase) {
-  const detail::RadixPasses passes(n);
-  const std::size_t row = std::size_t(member) * passes.digits();
-  for (int pass = 0; pass < passes.count; ++pass) {
-    const int shift = passes.shift(pass);
-    const auto from = [&] { return (pass % 2 == 0 ? out->keys : out->scratch).data(); };
-    const auto to = [&] { return (pass % 2 == 0 ? out->scratch : out->keys).data(); };
-    phase([&] { detail::count_digits(from(), first, last, shift, passes, out->counts.data() + row); });
-    // Every member's counts are in before any reads them, and read before the next pass counts again.
-    phase([&] {
-      detail::digit_starts(out->counts.data(), members, member, passes, out->starts.data() + row);
-      detail::scatter_digits(from(), first, last, shift, passes, out->starts.data() + row, to());
-    });
-  }
-}
-
-/// The keys sorted by sort_morton_keys_shared: out.keys or, after an odd number of passes, out.scratch.
-inline const std::vector<std::uint64_t>& sorted_keys(const QueryOrder& out) {
-  return detail::RadixPasses(out.keys.size()).count % 2 == 0 ? out.keys : out.scratch;
-}
-
-/// Sorts out.keys on this thread alone; the sorted keys are sorted_keys(out).
-inline void sort_morton_keys(QueryOrder& out) {
-  const std::size_t n = out.keys.size();
-  size_for_sort(n, 1, out);
-  sort_morton_keys_shared(n, &out, 1, 0, 0, n, [](auto&& body) { body(); });
-}
+/// Sorts out.keys by their Morton codes (stable: queries in one cell keep their order).
+inline void sort_morton_keys(QueryOrder& out) { detail::radix_sort_codes(out.keys, out.scratch, out.counts); }
 
 /// The query indices of sorted keys [first, last) into order (a share, as for morton_keys).
 inline void indices_of_keys(const std::vector<std::uint64_t>& keys, std::size_t first, std::size_t last,
@@ -196,7 +129,7 @@ inline void morton_order(const double* xyz, std::size_t n, QueryOrder& out) {
   morton_keys(xyz, 0, n, morton_grid(lo, hi), out.keys.data());
   sort_morton_keys(out);
   out.order.resize(n);
-  indices_of_keys(sorted_keys(out), 0, n, out.order.data());
+  indices_of_keys(out.keys, 0, n, out.order.data());
 }
 
 }  // namespace ours
