@@ -127,12 +127,17 @@ TEST(CoordinateRange, EveryAdapterRefusesModelAndQueriesBeyondTheBound) {
   }
 }
 
+// The adapters the coordinate checks are tried on: brute force, and ours when it is built in (NNB_WITH_OURS).
+std::vector<std::string> brute_force_and_ours() {
+  std::vector<std::string> names{"brute_force"};
+  if (nnb::adapter_built_in("ours_kdtree")) names.emplace_back("ours_kdtree");
+  return names;
+}
+
 TEST(CoordinateRange, ABadPointAmongGoodOnesIsNamed) {
   // One bad coordinate anywhere in a cloud of good ones: refused, naming that point.
   const Cloud good = random_cloud(1000, 1.0, 8);
-  std::vector<std::string> names{"brute_force"};
-  if (nnb::adapter_built_in("ours_kdtree")) names.emplace_back("ours_kdtree");  // NNB_WITH_OURS
-  for (const std::string& name : names) {
+  for (const std::string& name : brute_force_and_ours()) {
     auto index = nnb::make_adapter(name, {});
     Cloud model = good;
     model(0, 3) = -std::numeric_limits<double>::infinity();
@@ -157,9 +162,7 @@ TEST(CoordinateRange, ABadPointAmongGoodOnesIsNamed) {
 // the first non-finite one, else the first out of range, in whichever share they lie.
 TEST(CoordinateRange, ABadQueryOnThreadsIsNamedAsOnOne) {
   const Cloud good = random_cloud(2000, 1.0, 9);
-  std::vector<std::string> names{"brute_force"};
-  if (nnb::adapter_built_in("ours_kdtree")) names.emplace_back("ours_kdtree");  // NNB_WITH_OURS
-  for (const std::string& name : names) {
+  for (const std::string& name : brute_force_and_ours()) {
     auto index = nnb::make_adapter(name, {});
     index->build(good);
     nnb::Neighbours out;
