@@ -9,9 +9,7 @@ namespace {
 // The caller's wait at finish() is short (the helpers are past the batch's last barrier): it spins this
 // many times before it sleeps.
 constexpr int kSpinsBeforeSleep = 1 << 14;
-}  // namespace
 
-namespace {
 // The calling thread's pools; the first `in_use` serve its batches under way (nested ones: last in, first
 // out). In a child forked from a process that had pools, the pools' threads were not forked with them:
 // those pools are let go without being touched (their mutexes and condition variables may be in any
@@ -21,7 +19,7 @@ struct Pools {
   std::size_t in_use = 0;
   ~Pools() {
     for (auto& pool : list) {
-      if (pool->forked()) (void)pool.release();
+      if (pool && pool->forked()) (void)pool.release();
     }
   }
 };
@@ -30,10 +28,11 @@ thread_local Pools pools;
 
 WorkerPool::ForBatch::ForBatch() {
   if (pools.in_use == pools.list.size()) pools.list.push_back(nullptr);
-  std::unique_ptr<WorkerPool>& pool = pools.list[pools.in_use++];
+  std::unique_ptr<WorkerPool>& pool = pools.list[pools.in_use];
   if (pool && pool->forked()) (void)pool.release();
   if (!pool) pool = std::make_unique<WorkerPool>();
   pool_ = pool.get();
+  ++pools.in_use;
 }
 
 WorkerPool::ForBatch::~ForBatch() { --pools.in_use; }
