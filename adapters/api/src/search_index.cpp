@@ -125,7 +125,6 @@ void SearchIndex::build(const Cloud& model) {
 }
 
 void SearchIndex::check_queries(const Cloud& queries) const {
-  if (model_size_ == 0) throw InputError(info_.name + ": search before build");
   if (const auto bad = first_non_finite(queries); bad >= 0) {
     throw InputError(info_.name + ": query point " + std::to_string(bad) + " has a non-finite coordinate");
   }
@@ -253,12 +252,12 @@ void SearchIndex::answer_in_slices(const Cloud& queries, Neighbours& out, const 
   const Eigen::Index n = queries.cols();
   const Eigen::Index most = std::max<Eigen::Index>(1, n / kMinQueriesPerThread);
   const int threads = info_.concurrency == Concurrency::queries ? static_cast<int>(std::min<Eigen::Index>(threads_, most)) : 1;
+  if (model_size_ == 0) throw InputError(info_.name + ": search before build");
   if (threads == 1) {
     check_queries(queries);
     answer(queries, 0, out);
     return;
   }
-  if (model_size_ == 0) check_queries(queries);  // throws before any thread starts; the coordinates: below
   const std::vector<Eigen::Index> starts = slice_starts(n, threads, kMinQueriesPerThread);
   std::vector<Neighbours> rows(starts.size() - 1);
   std::vector<int> answered_by(rows.size());

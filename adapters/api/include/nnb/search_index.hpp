@@ -162,7 +162,9 @@ class SearchIndex {
   virtual void slicing_order(const Cloud& queries, const Team& team, std::vector<PointIndex>& order) const;
 
  private:
+  /// Throws InputError naming the first query point that is not finite, else the first out of range.
   void check_queries(const Cloud& queries) const;
+  /// The same, each member of the team checking its share.
   void check_queries_on(const Team& team, const Cloud& queries, std::atomic<bool>& out_of_range) const;
   int useful_k(int k) const;
   void check_supported(SearchKind kind) const;

@@ -2,9 +2,9 @@
 // The threads answering one batch together. Each runs the same code with its own member number, in
 // phases: phase(body) runs body on this member, then waits until every member has finished the phase (a
 // barrier), so that one start of the team serves every step of a batch (ordering the queries, answering
-// slices, returning the rows) and what a member wrote in a phase is seen by all in the next. A body that throws
-// still reaches the barrier (no member waits forever); the first exception is kept for the caller, and
-// later bodies are skipped.
+// slices, returning the rows) and what a member wrote in a phase is seen by all in the next. A body that
+// throws still reaches the barrier (no member waits forever); the first exception is kept for the caller,
+// and later bodies are skipped.
 #include <atomic>
 #include <cstddef>
 #include <exception>
