@@ -14,13 +14,15 @@ constexpr int kSpinsBeforeSleep = 1 << 14;
 // out). In a child forked from a process that had pools, the pools' threads were not forked with them:
 // those pools are let go without being touched (their mutexes and condition variables may be in any
 // state), never joined or destroyed.
+void let_go_if_forked(std::unique_ptr<WorkerPool>& pool) {
+  if (pool && pool->forked()) (void)pool.release();
+}
+
 struct Pools {
   std::vector<std::unique_ptr<WorkerPool>> list;
   std::size_t in_use = 0;
   ~Pools() {
-    for (auto& pool : list) {
-      if (pool && pool->forked()) (void)pool.release();
-    }
+    for (auto& pool : list) let_go_if_forked(pool);
   }
 };
 thread_local Pools pools;
@@ -29,7 +31,7 @@ thread_local Pools pools;
 WorkerPool::ForBatch::ForBatch() {
   if (pools.in_use == pools.list.size()) pools.list.push_back(nullptr);
   std::unique_ptr<WorkerPool>& pool = pools.list[pools.in_use];
-  if (pool && pool->forked()) (void)pool.release();
+  let_go_if_forked(pool);
   if (!pool) pool = std::make_unique<WorkerPool>();
   pool_ = pool.get();
   ++pools.in_use;
