@@ -5,6 +5,7 @@
 #include "nnb/datasets/loaders.hpp"
 #include "nnb/datasets/poses.hpp"
 #include "nnb/datasets/synthetic.hpp"
+#include "input_files.hpp"
 #include "real_data.hpp"
 
 #include <gtest/gtest.h>
@@ -29,51 +30,18 @@ namespace fs = std::filesystem;
 using namespace nnb::datasets;
 using nnb::InputError;
 
+using nnb::test::expect_input_error;
+using nnb::test::TempDir;
+
 namespace {
 
 std::string real_file(const std::string& folder, const std::string& file) {
   return (fs::path(default_data_dir()) / folder / file).string();
 }
 
-/// A fresh directory per test, removed afterwards.
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            ("nnb_test_datasets_" + std::to_string(::getpid()) + "_" + info->test_suite_name() + "_" + info->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string file(const std::string& name, const std::string& bytes) const {
-    const fs::path p = path_ / name;
-    fs::create_directories(p.parent_path());
-    std::ofstream(p, std::ios::binary) << bytes;
-    return p.string();
-  }
-  std::string path() const { return path_.string(); }
-
- private:
-  fs::path path_;
-};
-
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-/// Runs f, expects an InputError whose one-line message contains every needle.
-template <class F>
-void expect_input_error(F&& f, std::initializer_list<std::string> needles) {
-  try {
-    f();
-    ADD_FAILURE() << "no InputError thrown";
-  } catch (const InputError& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message.find('\n'), std::string::npos) << "not one line: " << message;
-    for (const auto& needle : needles) EXPECT_NE(message.find(needle), std::string::npos) << message << " lacks " << needle;
-  }
 }
 
 std::string float_bytes(std::initializer_list<float> values, bool big_endian = false) {

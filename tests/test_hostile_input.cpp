@@ -5,6 +5,7 @@
 #include "nnb/registry.hpp"
 
 #include "cross_check.hpp"
+#include "input_files.hpp"
 
 #include <gtest/gtest.h>
 
@@ -26,39 +27,10 @@ using namespace nnb::datasets;
 using nnb::Cloud;
 using nnb::InputError;
 
+using nnb::test::expect_input_error;
+using nnb::test::TempDir;
+
 namespace {
-
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            ("nnb_test_hostile_" + std::to_string(::getpid()) + "_" + info->test_suite_name() + "_" + info->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string file(const std::string& name, const std::string& bytes) const {
-    const fs::path p = path_ / name;
-    std::ofstream(p, std::ios::binary) << bytes;
-    return p.string();
-  }
-
- private:
-  fs::path path_;
-};
-
-template <class F>
-void expect_input_error(F&& f, std::initializer_list<std::string> needles) {
-  try {
-    f();
-    ADD_FAILURE() << "no InputError thrown";
-  } catch (const InputError& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message.find('\n'), std::string::npos) << "not one line: " << message;
-    for (const auto& needle : needles) EXPECT_NE(message.find(needle), std::string::npos) << message << " lacks " << needle;
-  }
-}
 
 /// Runs f in a child limited to limit_mib of address space; true when it ended with an InputError.
 template <class F>

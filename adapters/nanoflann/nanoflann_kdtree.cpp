@@ -2,7 +2,7 @@
 // nanoflann keeps a point only when its squared distance is strictly below the current bound
 // (leaf test `dist < worstDist()`, RadiusResultSet `dist < radius`), so radius and ranged searches
 // run with a slightly inflated bound and are then filtered exactly by our inclusive rule.
-#include "nnb/registry.hpp"
+#include "nanoflann_source.hpp"
 
 #include <nanoflann.hpp>
 
@@ -17,27 +17,11 @@
 namespace nnb::adapters {
 namespace {
 
-// The interface nanoflann asks of a data set: point count and coordinate access.
-struct CloudSource {
-  const Cloud* cloud = nullptr;
-  std::size_t kdtree_get_point_count() const { return static_cast<std::size_t>(cloud->cols()); }
-  double kdtree_get_pt(PointIndex index, std::size_t dim) const {
-    return (*cloud)(static_cast<Eigen::Index>(dim), static_cast<Eigen::Index>(index));
-  }
-  template <class BoundingBox>
-  bool kdtree_get_bbox(BoundingBox&) const { return false; }  // let nanoflann compute it
-};
+using nanoflann_source::CloudSource;
+using nanoflann_source::inflated_sq_bound_m2;
 
 using Metric = nanoflann::L2_Simple_Adaptor<double, CloudSource, double, PointIndex>;
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<Metric, CloudSource, 3, PointIndex>;
-
-// Squared search bound (m^2) that nanoflann's strict `<` turns into at least our inclusive limit:
-// a relative and an absolute margin for rounding in its incremental cell distances, then one ulp.
-double inflated_sq_bound_m2(double limit_m, const double* query) {
-  const double scale = std::max({std::abs(query[0]), std::abs(query[1]), std::abs(query[2]), limit_m});
-  const double padded_m = limit_m + 1e-12 * scale;
-  return std::nextafter(padded_m * padded_m, std::numeric_limits<double>::infinity());
-}
 
 // nanoflann's documented extension point: a result set. Keeps the k nearest below a fixed bound,
 // so the bound prunes the tree from the start (a k-NN search limited by a radius, done natively).
@@ -119,15 +103,7 @@ class NanoflannKdTree final : public SearchIndex {
   }
 
   void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
-    const std::size_t keep = std::min<std::size_t>(static_cast<std::size_t>(k), model_size());
-    std::vector<PointIndex> indices(keep);
-    std::vector<double> sq_dists(keep);
-    out.reset(static_cast<std::size_t>(queries.cols()), keep * static_cast<std::size_t>(queries.cols()));
-    for (Eigen::Index q = 0; q < queries.cols(); ++q) {
-      const std::size_t found = tree_->knnSearch(queries.col(q).data(), keep, indices.data(), sq_dists.data());
-      for (std::size_t i = 0; i < found; ++i) out.push(indices[i], sq_dists[i]);
-      out.end_query();
-    }
+    nanoflann_source::knn_rows(*tree_, queries, k, model_size(), out);
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {

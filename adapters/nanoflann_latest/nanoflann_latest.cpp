@@ -3,7 +3,7 @@
 // share a mangled name (one definition each, no ODR clash); this translation unit sees only this header.
 // Like 1.4.3, 1.12 keeps a point only when its squared distance is strictly below the bound, so radius and
 // ranged searches run with a slightly inflated bound and are filtered exactly by our inclusive rule.
-#include "nnb/registry.hpp"
+#include "../nanoflann/nanoflann_source.hpp"
 
 // Everything the header includes, first, so that the rename below touches nanoflann's own names only.
 #include <algorithm>
@@ -41,27 +41,13 @@
 namespace nnb::adapters {
 namespace {
 
-namespace nf = ::nanoflann_latest;
+using nanoflann_source::CloudSource;
+using nanoflann_source::inflated_sq_bound_m2;
 
-struct CloudSource {
-  const Cloud* cloud = nullptr;
-  std::size_t kdtree_get_point_count() const { return static_cast<std::size_t>(cloud->cols()); }
-  double kdtree_get_pt(PointIndex index, std::size_t dim) const {
-    return (*cloud)(static_cast<Eigen::Index>(dim), static_cast<Eigen::Index>(index));
-  }
-  template <class BoundingBox>
-  bool kdtree_get_bbox(BoundingBox&) const { return false; }
-};
+namespace nf = ::nanoflann_latest;
 
 using Metric = nf::L2_Simple_Adaptor<double, CloudSource, double, PointIndex>;
 using Tree = nf::KDTreeSingleIndexAdaptor<Metric, CloudSource, 3, PointIndex>;
-
-// Squared search bound (m^2) that nanoflann's strict `<` turns into at least our inclusive limit.
-double inflated_sq_bound_m2(double limit_m, const double* query) {
-  const double scale = std::max({std::abs(query[0]), std::abs(query[1]), std::abs(query[2]), limit_m});
-  const double padded_m = limit_m + 1e-12 * scale;
-  return std::nextafter(padded_m * padded_m, std::numeric_limits<double>::infinity());
-}
 
 std::string version_text() {
   return std::to_string((NANOFLANN_VERSION >> 16) & 0xff) + "." + std::to_string((NANOFLANN_VERSION >> 8) & 0xff) +
@@ -104,15 +90,7 @@ class NanoflannLatest final : public SearchIndex {
   }
 
   void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
-    const std::size_t keep = std::min<std::size_t>(static_cast<std::size_t>(k), model_size());
-    std::vector<PointIndex> indices(keep);
-    std::vector<double> sq_dists(keep);
-    out.reset(static_cast<std::size_t>(queries.cols()), keep * static_cast<std::size_t>(queries.cols()));
-    for (Eigen::Index q = 0; q < queries.cols(); ++q) {
-      const std::size_t found = tree_->knnSearch(queries.col(q).data(), keep, indices.data(), sq_dists.data());
-      for (std::size_t i = 0; i < found; ++i) out.push(indices[i], sq_dists[i]);
-      out.end_query();
-    }
+    nanoflann_source::knn_rows(*tree_, queries, k, model_size(), out);
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {

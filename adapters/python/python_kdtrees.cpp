@@ -152,6 +152,28 @@ class PythonTree : public SearchIndex {
   std::size_t index_bytes_ = 0;
 };
 
+/// The libraries whose k-NN query takes a distance bound (scipy, pykdtree): k-NN and ranged search alike.
+class BoundedQueryTree : public PythonTree {
+ public:
+  using PythonTree::PythonTree;
+
+ protected:
+  /// The k nearest of each query within bound_m (infinity: none), rows in any order, distances in double.
+  virtual void query(const Cloud& queries, int k, double bound_m, Neighbours& out) const = 0;
+
+ private:
+  void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
+    query(queries, k, std::numeric_limits<double>::infinity(), out);
+    sort_and_truncate(static_cast<std::size_t>(k), out);
+  }
+
+  void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
+    query(queries, k, search_bound_m(queries, max_dist_m), out);
+    filter_by_sq_dist(max_dist_m * max_dist_m, out);
+    sort_and_truncate(static_cast<std::size_t>(k), out);
+  }
+};
+
 AdapterInfo describe(const std::string& name, const std::string& library, const std::string& version,
                      const std::string& structure, const Params& params, const char* bucket_name, int bucket_default,
                      Strategy radius, Strategy ranged, Concurrency concurrency, std::string notes) {
@@ -175,10 +197,10 @@ AdapterInfo describe(const std::string& name, const std::string& library, const 
 
 // ------------------------------------------------------------------------------------------ SciPy cKDTree
 
-class ScipyCkdTree final : public PythonTree {
+class ScipyCkdTree final : public BoundedQueryTree {
  public:
   explicit ScipyCkdTree(const Params& params)
-      : PythonTree(describe("scipy_ckdtree", "SciPy", NNB_SCIPY_VERSION, "k-d tree", params, "leafsize", 16,
+      : BoundedQueryTree(describe("scipy_ckdtree", "SciPy", NNB_SCIPY_VERSION, "k-d tree", params, "leafsize", 16,
                             Strategy::native, Strategy::native, Concurrency::library,
                             "cKDTree (balanced, compact nodes), workers = the threads asked for (1 by default); distance_upper_bound is strict: ranged "
                             "asks 1e-12 wider (relative and of the coordinates) and cuts at <= r; radius is "
@@ -201,7 +223,7 @@ class ScipyCkdTree final : public PythonTree {
   }
 
   // One call: query(queries, k[, distance_upper_bound]); misses come back as index n.
-  void query(const Cloud& queries, int k, double bound_m, Neighbours& out) const {
+  void query(const Cloud& queries, int k, double bound_m, Neighbours& out) const override {
     const auto n_queries = static_cast<std::size_t>(queries.cols());
     if (n_queries == 0) return out.reset();
     {
@@ -211,17 +233,6 @@ class ScipyCkdTree final : public PythonTree {
       append_index_rows<std::int64_t>(found[1], n_queries, model_size(), out);
     }
     recompute_sq_dists(model(), queries, out);
-  }
-
-  void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
-    query(queries, k, std::numeric_limits<double>::infinity(), out);
-    sort_and_truncate(static_cast<std::size_t>(k), out);
-  }
-
-  void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
-    query(queries, k, search_bound_m(queries, max_dist_m), out);
-    filter_by_sq_dist(max_dist_m * max_dist_m, out);
-    sort_and_truncate(static_cast<std::size_t>(k), out);
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
@@ -241,10 +252,10 @@ class ScipyCkdTree final : public PythonTree {
 
 // ------------------------------------------------------------------------------------------ pykdtree
 
-class PyKdTree final : public PythonTree {
+class PyKdTree final : public BoundedQueryTree {
  public:
   explicit PyKdTree(const Params& params)
-      : PythonTree(describe("pykdtree", "pykdtree", NNB_PYKDTREE_VERSION, "k-d tree", params, "leafsize", 16,
+      : BoundedQueryTree(describe("pykdtree", "pykdtree", NNB_PYKDTREE_VERSION, "k-d tree", params, "leafsize", 16,
                             Strategy::via_knn, Strategy::native, Concurrency::library,
                             "OpenMP limited to the threads asked for (1 by default) around each call; distance_upper_bound is strict: "
                             "ranged asks 1e-12 wider and cuts at <= r; no radius search: k-NN bounded by the "
@@ -270,7 +281,7 @@ class PyKdTree final : public PythonTree {
   }
 
   // One call: query(queries, k, distance_upper_bound); misses come back as index n.
-  void query(const Cloud& queries, int k, double bound_m, Neighbours& out) const {
+  void query(const Cloud& queries, int k, double bound_m, Neighbours& out) const override {
     const auto n_queries = static_cast<std::size_t>(queries.cols());
     if (n_queries == 0) return out.reset();
     {
@@ -283,17 +294,6 @@ class PyKdTree final : public PythonTree {
       append_index_rows<std::uint32_t>(found[1], n_queries, model_size(), out);
     }
     recompute_sq_dists(model(), queries, out);
-  }
-
-  void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
-    query(queries, k, std::numeric_limits<double>::infinity(), out);
-    sort_and_truncate(static_cast<std::size_t>(k), out);
-  }
-
-  void do_ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const override {
-    query(queries, k, search_bound_m(queries, max_dist_m), out);
-    filter_by_sq_dist(max_dist_m * max_dist_m, out);
-    sort_and_truncate(static_cast<std::size_t>(k), out);
   }
 
   // Bounded k-NN until every row ends before k: then the row holds every point within the bound. The next k
