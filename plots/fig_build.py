@@ -4,22 +4,22 @@ import math
 import numpy as np
 
 import style
-from results_io import SHAPES, build_rank, file_ranks, latest_builds, warn
+from results_io import SHAPES, build_rank, file_ranks, latest_builds, size_order, warn
 
 plt = style.plt
 COLUMNS = 4
 
 
 def drawn_builds(results):
-    """{(model, adapter): Build}, each from the newest run that built it, at one set size per model: the newest
-    run's (quick's 15,000-point builds of adapters the grid left out are not drawn beside its 60,000)."""
+    """{(model, adapter): Build}, each from the newest run that built it, at one set size per model: the largest
+    (quick's 15,000-point builds are not drawn beside the grid's 60,000, whichever ran last)."""
     latest, ranks = latest_builds(results), file_ranks(results)
-    newest = {}
+    chosen = {}
     for (model, _), b in latest.items():
-        rank = build_rank(results, b, ranks)
-        if model not in newest or rank >= newest[model][0]:
-            newest[model] = (rank, b.n_points)
-    return {k: b for k, b in latest.items() if None in (b.n_points, newest[k[0]][1]) or b.n_points == newest[k[0]][1]}
+        order = (size_order(b.n_points), build_rank(results, b, ranks))
+        if model not in chosen or order >= chosen[model][0]:
+            chosen[model] = (order, b.n_points)
+    return {k: b for k, b in latest.items() if None in (b.n_points, chosen[k[0]][1]) or b.n_points == chosen[k[0]][1]}
 
 
 def build_table(results):

@@ -212,14 +212,15 @@ def build_rank(results, build, ranks=None):
 
 
 def latest_builds(results):
-    """{(model, adapter): Build} from the newest file that built it (by context date, then reading order)."""
+    """{(model, adapter): Build} at the largest set size any file built it at (the grid's beside quick's), from the
+    newest file among those (by context date, then reading order)."""
     ranks = file_ranks(results)
     out = {}
     for b in results.builds:
         key = (b.model, b.adapter)
-        rank = build_rank(results, b, ranks)
-        if key not in out or rank >= out[key][0]:
-            out[key] = (rank, b)
+        order = (size_order(b.n_points), build_rank(results, b, ranks))
+        if key not in out or order >= out[key][0]:
+            out[key] = (order, b)
     return {k: b for k, (_, b) in out.items()}
 
 
@@ -361,16 +362,18 @@ def load(paths, prefer=None):
 
 def _one_set_size(cells, files, rank):
     """A combination swept at other set sizes in another file (quick's 15,000 points beside the grid's 60,000) is
-    not the same series: per (model, query), cells whose sizes differ from those of the newest file (by context
-    date, then reading order: rank) are left out, and said so."""
-    newest = {}
+    not the same series: per (model, query), cells at other sizes than the largest any file swept it at (the
+    grid's, whichever ran last; among files at those sizes the newest by context date, then reading order: rank)
+    are left out, and said so."""
+    chosen = {}
     for cell, path in zip(cells, files):
         key = (cell.model, cell.query)
-        if key not in newest or rank[path] >= rank[newest[key][0]]:
-            newest[key] = (path, (cell.n_points, cell.n_queries))
+        order = (size_order(cell.n_points, cell.n_queries), rank[path])
+        if key not in chosen or order >= chosen[key][0]:
+            chosen[key] = (order, path, (cell.n_points, cell.n_queries))
     kept, dropped = [], Counter()
     for cell, path in zip(cells, files):
-        last_path, sizes = newest[(cell.model, cell.query)]
+        _, last_path, sizes = chosen[(cell.model, cell.query)]
         known = None not in sizes and None not in (cell.n_points, cell.n_queries)
         if path != last_path and known and (cell.n_points, cell.n_queries) != sizes:
             dropped[(path, cell.model, cell.query, last_path)] += 1
@@ -379,6 +382,11 @@ def _one_set_size(cells, files, rank):
     for (path, model, query, last_path), n in dropped.items():
         warn(f"{path}: {n} cells of {model} -> {query} left out: other set sizes than {last_path}'s")
     return kept
+
+
+def size_order(*sizes):
+    """Orders set sizes, unknown (None) below any known one."""
+    return tuple(-1 if n is None else n for n in sizes)
 
 
 def _last_wins(items, key):

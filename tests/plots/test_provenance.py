@@ -106,6 +106,20 @@ class ProvenanceTest(unittest.TestCase):
         self.assertEqual(run_findings(old, new, "--out", self.out).returncode, 0)
         self.assertNotIn("NOT A CLEAN RUN", self.out.read_text())
 
+    def test_a_later_smaller_sweep_leaves_the_larger_series_drawn(self):
+        def sized(records, n):
+            return [dict(r, n_points=n, n_queries=n) for r in records]
+        def records(n, **speed):
+            shapes = ("hollow_sphere",)
+            return sized(fixtures.sweep_records(shapes=shapes, **speed) + fixtures.build_records(shapes=shapes), n)
+        grid = fixtures.write(self.dir / "grid.json", "paper", records(60000), date="2024-01-01T00:00:00")
+        quick = fixtures.write(self.dir / "quick.json", "quick", records(15000, speed={"ours_kdtree": 0.1}),
+                               date="2024-02-01T00:00:00")
+        for files in ([grid, quick], [quick, grid]):
+            results = results_io.load(files)
+            self.assertEqual({c.n_points for c in results.sweep}, {60000}, "quick's later 15,000 points are not drawn")
+            self.assertEqual({b.n_points for b in results_io.latest_builds(results).values()} - {None}, {60000})
+
     def test_every_sitting_in_the_run_log_is_checked_for_overlap(self):
         """A resumed run's earlier sittings have no end in its file; the reference run's log has them all."""
         def run(name, date, wall, resumed=()):
