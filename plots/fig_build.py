@@ -11,8 +11,8 @@ COLUMNS = 4
 
 
 def drawn_builds(results):
-    """{(model, adapter): Build}, each from the newest run that built it, at one set size per model: the largest
-    (quick's 15,000-point builds are not drawn beside the grid's 60,000, whichever ran last)."""
+    """{(model, adapter): Build}, each as latest_builds picks it, at one set size per model: the largest (quick's
+    15,000-point builds are not drawn beside the grid's 60,000, whichever ran last)."""
     latest, ranks = latest_builds(results), file_ranks(results)
     chosen = {}
     for (model, _), b in latest.items():
