@@ -19,6 +19,11 @@ def run_findings(*args):
                           timeout=120)
 
 
+def sized(records, n):
+    """The records as swept at n points and n queries."""
+    return [dict(r, n_points=n, n_queries=n) for r in records]
+
+
 class ProvenanceTest(unittest.TestCase):
     def setUp(self):
         self.tmp = tempfile.TemporaryDirectory()
@@ -91,8 +96,6 @@ class ProvenanceTest(unittest.TestCase):
         self.assertEqual(got, {2.0 * 0.15})
 
     def test_a_combination_at_other_set_sizes_is_left_out(self):
-        def sized(records, n):
-            return [dict(r, n_points=n, n_queries=n) for r in records]
         small = sized(fixtures.sweep_records(shapes=("hollow_sphere",), speed={"ours_kdtree": 0.1}), 15000)
         small.append(dict(small[-1], name=small[-1]["name"] + "/only_here", max_dist=0.77))
         old = fixtures.write(self.dir / "quick.json", "quick", small, date="2024-01-01T00:00:00")
@@ -107,8 +110,6 @@ class ProvenanceTest(unittest.TestCase):
         self.assertNotIn("NOT A CLEAN RUN", self.out.read_text())
 
     def test_a_later_smaller_sweep_leaves_the_larger_series_drawn(self):
-        def sized(records, n):
-            return [dict(r, n_points=n, n_queries=n) for r in records]
         def records(n, **speed):
             shapes = ("hollow_sphere",)
             return sized(fixtures.sweep_records(shapes=shapes, **speed) + fixtures.build_records(shapes=shapes), n)
