@@ -8,6 +8,8 @@
 //   Build/<pair>/<subject>: building the index over a pair's model (and the 16M-point simulated city scan).
 //   Ranged1NN/<pair>/<subject>/<max dist>/threads:<n>: the same on n threads (2 to --threads, default 2),
 //       wall time, on fig3 and the SICK pair in file order, for ours and the anchors.
+//   Ranged2NN/<pair>/<subject>/0.10: the two nearest within 0.1 m (what ICP's tracked neighbours ask),
+//       ours and the anchors on every pair in file order; for information, no target.
 //   IcpStep/<pair>: what ICP does between two searches (the fit from the pairs of a 0.5 m ranged 1-NN
 //       search, then moving every query point), per correspondence.
 // Targets: ours (the faster of our k-d tree and octree) at least 2x the faster nanoflann (Debian's and,
@@ -176,7 +178,8 @@ void bench_build(benchmark::State& state, const Subject& s, const std::string& p
   state.SetItemsProcessed(state.iterations() * c.model.cols());
 }
 
-void bench_ranged(benchmark::State& state, const Subject& s, const std::string& pair, double max_dist_m, int threads) {
+void bench_ranged(benchmark::State& state, const Subject& s, const std::string& pair, double max_dist_m, int threads,
+                  int k = 1) {
   const Clouds& c = clouds(pair);
   if (skipped(state, c)) return;
   auto index = nnb::make_adapter(s.adapter, s.params);
@@ -184,7 +187,7 @@ void bench_ranged(benchmark::State& state, const Subject& s, const std::string& 
   index->build(c.model);
   nnb::Neighbours out;
   for (auto _ : state) {
-    index->ranged(c.queries, 1, max_dist_m, out);
+    index->ranged(c.queries, k, max_dist_m, out);
     benchmark::DoNotOptimize(out.indices.data());
   }
   state.counters["found"] = double(out.queries_with_neighbours());
@@ -223,10 +226,14 @@ std::string distance_text(double max_dist_m) {
   return text;
 }
 
-std::string ranged_name(const std::string& pair, const std::string& label, double max_dist_m, int threads = 1) {
-  const std::string name = "Ranged1NN/" + pair + "/" + label + "/" + distance_text(max_dist_m);
+std::string ranged_name(const std::string& pair, const std::string& label, double max_dist_m, int threads = 1,
+                        int k = 1) {
+  const std::string name = "Ranged" + std::to_string(k) + "NN/" + pair + "/" + label + "/" + distance_text(max_dist_m);
   return threads == 1 ? name : name + "/threads:" + std::to_string(threads);
 }
+
+// The distance of the 2-NN benchmarks.
+constexpr double kTwoNearestDistM = 0.1;
 
 // The pairs the threaded benchmarks run on.
 bool threaded_pair(const PairSpec& pair) { return pair.name == "fig3" || pair.name == "office-sick-3dtk"; }
@@ -310,6 +317,12 @@ void register_all(const Subjects& all) {
       }
     }
     if (!pair.shuffled) {
+      for (const Subject& s : all.everywhere) {
+        if (s.label != s.adapter) continue;  // ours and the anchors as they come
+        const double d = kTwoNearestDistM;
+        ms(benchmark::RegisterBenchmark(ranged_name(p, s.label, d, 1, 2).c_str(),
+                                        [s, p, d](benchmark::State& st) { bench_ranged(st, s, p, d, 1, 2); }));
+      }
       ms(benchmark::RegisterBenchmark(icp_step_name(p).c_str(), [p](benchmark::State& st) { bench_icp_step(st, p); }));
     }
   }
@@ -441,6 +454,20 @@ void print_ranged_targets(const RatioReporter& r, Tally& tally) {
   }
 }
 
+// For information (no target): ranged 2-NN, what ICP's tracked neighbours ask.
+void print_two_nearest(const RatioReporter& r) {
+  std::printf("\nRanged 2-NN at %.2f m, ns per query (for information); ratio = the faster nanoflann / the faster of ours:\n",
+              kTwoNearestDistM);
+  std::printf("%-34s | %8s %8s | %9s %9s | %s\n", "pair", "kdtree", "octree", "nanoflann", "latest", "ratio");
+  for (const PairSpec& pair : pairs()) {
+    if (pair.shuffled) continue;
+    auto ns = [&](const std::string& label) { return ns_per_item(r, ranged_name(pair.name, label, kTwoNearestDistM, 1, 2)); };
+    const auto kd = ns("ours_kdtree"), oc = ns("ours_octree"), nano = ns("nanoflann_kdtree"), latest = ns("nanoflann_latest");
+    std::printf("%-34s | %8s %8s | %9s %9s | %s\n", pair.name.c_str(), number(kd).c_str(), number(oc).c_str(),
+                number(nano).c_str(), number(latest).c_str(), number(ratio(faster(nano, latest), faster(kd, oc))).c_str());
+  }
+}
+
 // Target 5: ours at least 1.8x faster on 2 threads than on one (wall time); more threads for information.
 void print_thread_targets(const RatioReporter& r, Tally& tally) {
   if (max_threads() < 2) return;
@@ -514,6 +541,7 @@ void print_targets(const RatioReporter& r) {
                 "the anchor is Debian's nanoflann alone.\n");
   }
   print_ranged_targets(r, tally);
+  print_two_nearest(r);
   print_thread_targets(r, tally);
   print_icp_step_target(r, tally);
   print_build_targets(r, tally);

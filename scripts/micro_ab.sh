@@ -26,7 +26,7 @@ for filter in "$@"; do
       bin=$a
       [ "$side" = B ] && bin=$b
       "$bin" --benchmark_filter="$filter" --benchmark_min_time=0.3 2>/dev/null |
-        awk -v side="$side" '/^(Ranged1NN|Build|IcpStep)\/[^ ]* +[0-9.]+ (ns|us|ms|s) / {
+        awk -v side="$side" '/^(Ranged[12]NN|Build|IcpStep)\/[^ ]* +[0-9.]+ (ns|us|ms|s) / {
           t = $2; u = $3; f = (u == "ns") ? 1e-6 : (u == "us") ? 1e-3 : (u == "s") ? 1e3 : 1
           print side, $1, t * f }' >> "$runs" || die "$bin failed on filter '$filter'"
     done
