@@ -178,7 +178,7 @@ void check_all(const Cloud& model, double extent_m) {
     auto index = nnb::make_adapter(v.adapter, v.params);
     index->build(model);
     Neighbours expected, got;
-    for (int k : {1, 4, 40}) {
+    for (int k : {1, 2, 4, 9, 40}) {
       brute->knn(queries, k, expected);
       index->knn(queries, k, got);
       ASSERT_EQ("", exact_mismatch(model, queries, expected, got, true)) << "knn k=" << k;

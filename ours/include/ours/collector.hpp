@@ -337,6 +337,47 @@ inline T bound_shrink(int steps) {
   return T(1.0 - std::min(0.5, 8.0 * u * (steps + 8)));
 }
 
+/// Returns a 4-bit mask of which of sq[0, 4) are <= bound (a NaN is not).
+template <typename T>
+inline unsigned at_most_mask(const T* sq, T bound) {
+#if defined(__SSE2__)
+  if constexpr (std::is_same_v<T, double>) {
+    const __m128d b = _mm_set1_pd(bound);
+    return static_cast<unsigned>(_mm_movemask_pd(_mm_cmple_pd(_mm_loadu_pd(sq), b)) |
+                                 (_mm_movemask_pd(_mm_cmple_pd(_mm_loadu_pd(sq + 2), b)) << 2));
+  } else {
+    return static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(_mm_loadu_ps(sq), _mm_set1_ps(bound))));
+  }
+#else
+  unsigned mask = 0;
+  for (unsigned j = 0; j < 4; ++j) mask |= unsigned(sq[j] <= bound) << j;
+  return mask;
+#endif
+}
+
+/// Returns the smallest of v[0, m) that is a number (+infinity when none is).
+template <typename T>
+inline T min_of_numbers(const T* v, std::uint32_t m) {
+  T low = std::numeric_limits<T>::infinity();
+  std::uint32_t i = 0;
+#if defined(__SSE2__)
+  if constexpr (std::is_same_v<T, double>) {
+    // minpd returns its second operand when the first is NaN: the running minimum goes second.
+    __m128d a = _mm_set1_pd(low), b = a;
+    for (; i + 4 <= m; i += 4) {
+      a = _mm_min_pd(_mm_loadu_pd(v + i), a);
+      b = _mm_min_pd(_mm_loadu_pd(v + i + 2), b);
+    }
+    const __m128d ab = _mm_min_pd(a, b);
+    low = std::min(_mm_cvtsd_f64(ab), _mm_cvtsd_f64(_mm_unpackhi_pd(ab, ab)));
+  }
+#endif
+  for (; i < m; ++i) {
+    if (v[i] < low) low = v[i];
+  }
+  return low;
+}
+
 /// Collects the k nearest candidates within limit_sq. Linear = sorted array, else binary max-heap.
 template <typename T, bool Linear>
 class Collector {
@@ -369,9 +410,23 @@ class Collector {
     }
   }
 
-  /// Offers m points with squared distances sq (m^2) and model indices index.
-  void offer_block(const T* sq, const std::uint32_t* index, std::uint32_t m, T) {
-    for (std::uint32_t i = 0; i < m; ++i) {
+  /// Offers m points with squared distances sq (m^2) and model indices index, whose smallest, nearest,
+  /// the caller found <= bound(); sq is scratch, left changed. Offered in block order, a full heap would
+  /// take every point nearer than its bound one after the other (a handful a block). An exact search for
+  /// few neighbours offers the block's points nearest first instead, and stops after k or at the first
+  /// beyond the bound: nothing after them can enter. Otherwise (many neighbours; a float search, which
+  /// keeps near misses too) every point within the bound is offered, four compared at a time.
+  void offer_block(T* sq, const std::uint32_t* index, std::uint32_t m, T nearest) {
+    if constexpr (!ErrorModel<T>::kConservative) {
+      if (k_ <= kNearestFirstMaxK) return offer_nearest_first(sq, index, m, nearest);
+    }
+    for (std::uint32_t i = 0; i + 4 <= m; i += 4) {
+      for (unsigned mask = at_most_mask(sq + i, bound_); mask != 0; mask &= mask - 1) {
+        const std::uint32_t at = i + static_cast<std::uint32_t>(__builtin_ctz(mask));
+        if (sq[at] <= bound_) offer(sq[at], index[at]);
+      }
+    }
+    for (std::uint32_t i = m & ~3u; i < m; ++i) {
       if (sq[i] <= bound_) offer(sq[i], index[i]);
     }
   }
@@ -388,6 +443,21 @@ class Collector {
 
  private:
   static bool by_dist(const Neighbour<T>& a, const Neighbour<T>& b) { return a.sq_dist < b.sq_dist; }
+
+  // Up to this k a pass over the block per neighbour costs less than offering every point that passes.
+  static constexpr std::size_t kNearestFirstMaxK = 8;
+
+  void offer_nearest_first(T* sq, const std::uint32_t* index, std::uint32_t m, T nearest) {
+    for (std::size_t offered = 0;;) {
+      const std::uint32_t at = find_first(sq, m, nearest);
+      if (at == m) return;
+      offer(nearest, index[at]);
+      if (++offered == std::min<std::size_t>(k_, m)) return;
+      sq[at] = std::numeric_limits<T>::quiet_NaN();  // taken: no minimum sees it again
+      nearest = min_of_numbers(sq, m);
+      if (!(nearest <= bound_)) return;
+    }
+  }
 
   T kth() const { return Linear ? best_.back().sq_dist : best_.front().sq_dist; }
 
