@@ -195,12 +195,12 @@ def _both(model, query, field, fmt="{:,}"):
 
 
 def real_pair_scans(results):
-    """{pair: (model entry, query entry)} of the real pairs' scans in the results' context.datasets."""
+    """{pair: (model entry, query entry)} of the real pairs' scans in the results' context.datasets, by name."""
     scans = {}
     for (spec, role), entry in results.datasets.items():
         if entry.get("kind") == "real_pair" and role in ("model", "query"):
             scans.setdefault(spec, {})[role] = entry
-    return {spec: (s["model"], s["query"]) for spec, s in scans.items() if len(s) == 2}
+    return {spec: (s["model"], s["query"]) for spec, s in sorted(scans.items()) if len(s) == 2}
 
 
 def real_pairs_lines(results):

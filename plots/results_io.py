@@ -80,7 +80,7 @@ class Results:
         self.build_skips = {}  # (model, adapter) -> reason the build did not run
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
         self.duplicates = {}  # record name -> [paths of every file holding it], when more than one
-        self.datasets = {}   # (spec, role) -> a context.datasets entry: the last file's (newest with prefer)
+        self.datasets = {}   # (spec, role) -> a context.datasets entry: the last file's (newest with prefer), see merged_dataset
 
     def adapter_info(self, name):
         return self.adapters.get(name, {})
@@ -299,6 +299,14 @@ def experiment_of(context):
     return context.get("experiment") or context.get("nnb_experiment")
 
 
+def merged_dataset(older, newer):
+    """A later file's entry for a scan wins; the fields it does not record are kept from an earlier file's
+    entry for the same data (equal sha256), so that a file recording less does not erase what another said."""
+    if older and older.get("sha256") == newer.get("sha256"):
+        return {**older, **newer}
+    return newer
+
+
 def file_date(context):
     return str(context.get("date") or "")
 
@@ -332,7 +340,8 @@ def load(paths, prefer=None):
             if isinstance(info, dict):
                 results.adapters.setdefault(name, {}).update({k: v for k, v in info.items() if v is not None})
         datasets = {(d.get("spec"), d.get("role")): d for d in (context.get("datasets") or []) if isinstance(d, dict)}
-        results.datasets.update(datasets)
+        for key, entry in datasets.items():
+            results.datasets[key] = merged_dataset(results.datasets.get(key), entry)
         sizes = {key: _number(d.get("points")) for key, d in datasets.items()}
         micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) == "micro"]
         for rec in micro:

@@ -90,6 +90,17 @@ class ReadmeTablesTest(unittest.TestCase):
         self.assertEqual(lines[2:], ["| `sick` | 81,360 / 81,360 | 81,360 / 81,360 | not recorded | not recorded | "
                                      "not recorded | not recorded |"])
 
+    def test_real_pairs_a_later_file_recording_less_keeps_the_earlier_fields_of_the_same_scans(self):
+        full = {"date": "2024-01-01T00:00:00", "datasets": [scan("sick", "model", 100, sha256="a"),
+                                                            scan("sick", "query", 90, sha256="b", placed_by="f")]}
+        short = {"date": "2024-01-02T00:00:00", "datasets": [
+            {"spec": "sick", "role": role, "kind": "real_pair", "points": n, "n_read": n + 1, "sha256": sha}
+            for role, n, sha in (("model", 100, "a"), ("query", 90, "c"))]}
+        paths = [self.write("pairs.json", full), self.write("sweep.json", short)]
+        lines = readme_tables.real_pairs_lines(results_io.load(paths, prefer="newest"))
+        # the model's scan is the same data: its units and file stay; the query's is other data: only what it says
+        self.assertEqual(lines[2:], ["| `sick` | 100 / 90 | 101 / 91 | not recorded | not recorded | m | not recorded |"])
+
     def test_icp_accuracy_reads_the_accuracy_experiment_only(self):
         records = [accuracy_record("velodyne", IDENTITY, 0.011, 0.35),
                    accuracy_record("sick", MOVED, 0.00009, 0.0015, max_dist_factor=1.0, query_stride=8),
