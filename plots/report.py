@@ -117,7 +117,7 @@ def bucket_figure(results):
             traces.append(trace(xs, [points[x] for x in xs], f"{pair}: {adapter}", adapter, results,
                                 "ranged", results.adapter_info(adapter).get("ranged")))
     return figure(traces, "ICP time against bucket size", "bucket size (points per leaf)", "ICP time (s)",
-                  log_y=False, log_x=True)
+                  log_x=True)
 
 
 def scale_figures(results):

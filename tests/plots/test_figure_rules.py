@@ -11,6 +11,7 @@ import fig_icp  # noqa: E402
 import fig_speedup  # noqa: E402
 import fig_sweep  # noqa: E402
 import readme_tables  # noqa: E402
+import report  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
 from PIL import Image  # noqa: E402
@@ -54,6 +55,17 @@ class FigureRulesTest(unittest.TestCase):
             self.assertNotIn(fixtures.APPROX, ranked, pair)
             self.assertIn(fixtures.APPROX, approximate, pair)
         self.assertNotIn(fixtures.APPROX, "\n".join(readme_tables.icp_lines(r)))
+
+    def test_bucket_curves_share_a_log_time_axis(self):
+        drawn = []
+        save, style.save = style.save, lambda fig, out_dir, stem: drawn.append(fig)
+        try:
+            fig_icp.fig2(self.results, self.dir / "unused")
+        finally:
+            style.save = save
+        self.assertEqual(len(drawn), 1)
+        self.assertEqual([ax.get_yscale() for ax in drawn[0].axes], ["log"])
+        self.assertEqual(report.bucket_figure(self.results)["layout"]["yaxis"]["type"], "log")
 
     def test_approximate_adapter_is_drawn_grey_and_hollow(self):
         kw = style.marker_kw(fixtures.APPROX, self.results)
