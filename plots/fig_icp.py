@@ -53,7 +53,7 @@ def fig2(results, out_dir):
             ax.plot(xs, [points[x] for x in xs], label=icp_label(adapter, results), **kw)
         ax.axvspan(5, 20, color="grey", alpha=0.12, label="bucket 5 to 20 (paper's optimum)")
         ax.set_xscale("log")
-        ax.set_yscale("log")  # the libraries' curves lie orders of magnitude apart: linear flattens all but the slowest
+        style.log_y(ax)  # the libraries' curves lie orders of magnitude apart: linear flattens all but the slowest
         sizes = sorted({b for points in curves[pair].values() for b in points})
         ax.set_xticks(sizes, [f"{b:g}" for b in sizes])
         ax.minorticks_off()

@@ -3,6 +3,7 @@ import subprocess
 import sys
 import tempfile
 import unittest
+from unittest import mock
 from pathlib import Path
 
 import fixtures  # first: puts plots/ on the path
@@ -58,11 +59,8 @@ class FigureRulesTest(unittest.TestCase):
 
     def test_bucket_curves_share_a_log_time_axis(self):
         drawn = []
-        save, style.save = style.save, lambda fig, out_dir, stem: drawn.append(fig)
-        try:
+        with mock.patch.object(style, "save", lambda fig, out_dir, stem: drawn.append(fig)):
             fig_icp.fig2(self.results, self.dir / "unused")
-        finally:
-            style.save = save
         self.assertEqual(len(drawn), 1)
         self.assertEqual([ax.get_yscale() for ax in drawn[0].axes], ["log"])
         self.assertEqual(report.bucket_figure(self.results)["layout"]["yaxis"]["type"], "log")
