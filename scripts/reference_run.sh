@@ -22,6 +22,8 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 src=$here out="" until="" only="" build=1 list=0 install=0 from_pending=0 end_early="" reason=""
 die() { echo "reference_run: error: $*" >&2; exit 2; }
+# Microseconds make each log line its event's alone, so --install can skip the lines a clone already has.
+now() { date +%Y-%m-%dT%H:%M:%S.%6N%:z; }
 while [ $# -gt 0 ]; do
   case $1 in
     --out) out=${2:?}; shift ;;
@@ -122,7 +124,8 @@ if [ $install = 1 ]; then
     fi
   done
   # The log keeps every run's lines: a later run of some steps (from a later commit) adds its own after
-  # those of the run that made the other files, whose sittings provenance checks from them.
+  # those of the run that made the other files, whose sittings provenance checks from them. A line already
+  # there is the same event (see now), so installing a run twice adds nothing.
   if [ -f "$out/log.txt" ]; then
     touch "$dest/reference_run_log.txt"
     grep -vxF -f "$dest/reference_run_log.txt" "$out/log.txt" >> "$dest/reference_run_log.txt" || true
@@ -137,7 +140,7 @@ if [ -n "$end_early" ]; then
   [ -f "$out/$(output_of "$end_early")" ] || die "$end_early has no file in $out to keep"
   [ ! -f "$out/.done/$end_early" ] || die "$end_early is already done"
   mkdir -p "$out/.done"
-  echo "$(date -Is) ended $end_early early, its file as it stands: $reason | load $(cut -d' ' -f1-3 /proc/loadavg)" \
+  echo "$(now) ended $end_early early, its file as it stands: $reason | load $(cut -d' ' -f1-3 /proc/loadavg)" \
     | tee -a "$out/log.txt"
   touch "$out/.done/$end_early"
   exit 0
@@ -184,7 +187,7 @@ fi
 built=$("$bench/nns_query" --version 2>/dev/null | sed -n 's/.*(git \([^,]*\),.*/\1/p')
 [ "$built" = "$commit" ] || die "$bench was built from ${built:-an unknown commit}, not the clean HEAD $commit: build it (or drop --no-build)"
 
-log() { echo "$(date -Is) $* | load $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/log.txt"; }
+log() { echo "$(now) $* | load $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/log.txt"; }
 
 run_micro_nns() {  # its JSON lacks the load and the tree state: a header and footer in micro_nns.txt say them
   mkdir -p "$out/micro_nns"

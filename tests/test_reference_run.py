@@ -5,6 +5,7 @@ The stand-ins (run_sweep, run_icp, nns_query, micro_nns) record their arguments 
 so the script's order, resumption, refusals and installation are checked in seconds, without a build.
 """
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -136,6 +137,14 @@ check(any(icp_real in c for c in ran), f"ICP on the real pairs not from the scri
 check((out / "micro_nns" / "micro_nns.txt").read_text().count("# before: ") == 1, "micro_nns.txt lacks its load")
 log = (out / "log.txt").read_text()
 check(log.count(" start ") == len(STEPS) and "all steps done" in log and "load " in log, f"log: {log}")
+# Each line's time to the microsecond makes it its event's alone: --install drops lines a clone already has.
+check(all(re.match(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{6}[+-]\d\d:\d\d ", line) for line in log.splitlines()),
+      f"a log line without its time to the microsecond: {log}")
+sys.path.insert(0, str(SCRIPT.parent.parent / "plots"))
+import provenance  # noqa: E402  the reader of the installed log
+sittings = provenance.run_log_sittings(log)  # every step but the registry and the checks writes one --out file
+check(len(sittings) == len(STEPS) - 2 and all(len(s) == 1 for s in sittings.values()),
+      f"provenance did not read one sitting a step from the log: {sittings}")
 listed = run(tree, out, "--list").stdout.splitlines()
 rel = subprocess.run([str(SCRIPT), "--source", str(tree), "--out", str(out), "--list"], capture_output=True, text=True,
                      cwd="/", env=dict(os.environ, NNB_BENCH_DIR=os.path.relpath(BENCH, tree), CALLS=str(CALLS)))
