@@ -504,10 +504,11 @@ void print_icp_step_target(const RatioReporter& r, Tally& tally) {
   }
 }
 
-// Target 6: building at least 2x faster than the faster nanoflann.
+// Target 6: each of our trees building at least 2x faster than the faster nanoflann.
 void print_build_targets(const RatioReporter& r, Tally& tally) {
-  std::printf("\nBuild, ms (fastest repetition, CPU time); ratio = the faster nanoflann / the faster of ours:\n");
-  std::printf("%-34s | %9s %9s | %9s %9s | %s\n", "model", "kdtree", "octree", "nanoflann", "latest", "ratio (target 2x)");
+  std::printf("\nBuild, ms (fastest repetition, CPU time); ratio = the faster nanoflann / each of ours (target 2x for each):\n");
+  std::printf("%-34s | %9s %9s | %9s %9s | %-18s | %s\n", "model", "kdtree", "octree", "nanoflann", "latest",
+              "kdtree ratio", "octree ratio");
   std::vector<std::string> models;
   for (const PairSpec& pair : pairs()) {
     if (!pair.shuffled) models.push_back(pair.name);
@@ -516,9 +517,11 @@ void print_build_targets(const RatioReporter& r, Tally& tally) {
   for (const std::string& model : models) {
     auto ms = [&](const std::string& label) { return r.ms(build_name(model, label)); };
     const auto kd = ms("ours_kdtree"), oc = ms("ours_octree"), nano = ms("nanoflann_kdtree"), latest = ms("nanoflann_latest");
-    std::printf("%-34s | %9s %9s | %9s %9s | %s\n", model.c_str(), number(kd).c_str(), number(oc).c_str(),
-                number(nano).c_str(), number(latest).c_str(),
-                verdict(ratio(faster(nano, latest), faster(kd, oc)), 2.0, true, "x", tally).c_str());
+    const auto anchor = faster(nano, latest);
+    const std::string kd_judged = verdict(ratio(anchor, kd), 2.0, true, "x", tally);
+    std::printf("%-34s | %9s %9s | %9s %9s | %-18s | %s\n", model.c_str(), number(kd).c_str(), number(oc).c_str(),
+                number(nano).c_str(), number(latest).c_str(), kd_judged.c_str(),
+                verdict(ratio(anchor, oc), 2.0, true, "x", tally).c_str());
   }
 }
 

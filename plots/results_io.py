@@ -20,6 +20,8 @@ SweepCell = namedtuple("SweepCell", "model query adapter search strategy max_dis
 Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points file", defaults=(None,))
 # Google Benchmark micro-benchmarks (bench/micro_nns): the fastest repetition's CPU time of one call.
 MicroCell = namedtuple("MicroCell", "pair adapter variant max_dist_m cpu_seconds n_queries")
+# micro_nns's single-threaded builds (Build/<model>/<adapter>): one record a repetition.
+MicroBuild = namedtuple("MicroBuild", "model adapter variant cpu_seconds")
 # ref_*: the final pose's error against the pair's reference (None without one); settings: ICP_SETTINGS and
 # initial_pose as the record gives them; bucket_source: "best" (from run_icp --buckets-from's file), "default"
 # (the adapter is not in that file) or None (no file named).
@@ -77,6 +79,7 @@ class Results:
         self.builds = []     # Build
         self.icp = []        # IcpRun
         self.micro = []      # MicroCell
+        self.micro_builds = []  # MicroBuild
         self.build_skips = {}  # (model, adapter) -> reason the build did not run
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
         self.duplicates = {}  # record name -> [paths of every file holding it], when more than one
@@ -186,6 +189,25 @@ def _read_micro(results, rec):
     results.micro.append(MicroCell(parts[1], adapter, variant.rstrip("]") or None, max_dist, seconds, n_queries))
 
 
+def _read_micro_build(results, rec):
+    """Build/<model>/<adapter[variant]> (a threaded build's name has more parts and is not read)."""
+    parts = _name_parts(rec)
+    cpu_time, unit = _number(rec.get("cpu_time")), rec.get("time_unit")
+    if len(parts) != 3 or cpu_time is None or unit not in UNIT_SECONDS:
+        return
+    adapter, _, variant = parts[2].partition("[")
+    results.micro_builds.append(MicroBuild(parts[1], adapter, variant.rstrip("]") or None, cpu_time * UNIT_SECONDS[unit]))
+
+
+def micro_build_cells(results):
+    """{(model, adapter): fastest CPU seconds of a single-threaded build}, default variants only."""
+    best = {}
+    for b in results.micro_builds:
+        if b.variant is None:
+            best[(b.model, b.adapter)] = min(best.get((b.model, b.adapter), math.inf), b.cpu_seconds)
+    return best
+
+
 def micro_cells(results, variants=False):
     """{(pair, adapter, max_dist): fastest CPU seconds}, default variants only unless asked."""
     best = {}
@@ -228,6 +250,8 @@ def _kind(rec):
     name = str(rec.get("name", ""))
     if name.startswith("Ranged1NN/"):
         return "micro"
+    if name.startswith("Build/"):
+        return "micro_build"
     for prefix in ("sweep", "build", "icp"):
         if name.startswith(prefix + "/"):
             return prefix
@@ -343,11 +367,12 @@ def load(paths, prefer=None):
         for key, entry in datasets.items():
             results.datasets[key] = merged_dataset(results.datasets.get(key), entry)
         sizes = {key: _number(d.get("points")) for key, d in datasets.items()}
-        micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) == "micro"]
+        micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) in ("micro", "micro_build")]
         for rec in micro:
             if rec.get("run_type") != "aggregate":
-                _read_micro(results, rec)
-        for rec in one_record_per_cell(r for r in benchmarks if isinstance(r, dict) and _kind(r) != "micro"):
+                (_read_micro if _kind(rec) == "micro" else _read_micro_build)(results, rec)
+        for rec in one_record_per_cell(r for r in benchmarks if isinstance(r, dict)
+                                       and _kind(r) not in ("micro", "micro_build")):
             kind = _kind(rec)
             if kind in ("sweep", "build"):
                 seen.setdefault(sized_run_name(rec, sizes), []).append(path)

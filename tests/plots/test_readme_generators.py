@@ -53,6 +53,18 @@ class ReadmeTablesTest(unittest.TestCase):
         self.assertEqual(lines[3], f"| `{self.dir / 'new.json'}` | quick | `run_sweep --experiment quick` | "
                                    "0123456 (dirty) | 0.10 -> 0.20 | 2024-01-02T00:00:00 | 5 min |")
 
+    def test_micro_builds_judge_each_tree_against_the_faster_nanoflann(self):
+        def build(model, adapter, ms, run_type="iteration"):
+            return {"name": f"Build/{model}/{adapter}", "run_name": f"Build/{model}/{adapter}", "run_type": run_type,
+                    "cpu_time": ms, "real_time": ms, "time_unit": "ms"}
+        records = [build("sick", "ours_kdtree", 5.0), build("sick", "ours_kdtree", 4.0), build("sick", "ours_octree", 2.0),
+                   build("sick", "nanoflann_kdtree", 9.0), build("sick", "nanoflann_latest", 7.0),
+                   build("sick", "ours_kdtree", 1.0, run_type="aggregate"),  # a mean: never the fastest repetition
+                   build("sick", "ours_kdtree[bucket_size=8]", 0.5), build("sick", "ours_kdtree/threads:2/real_time", 0.5)]
+        results = results_io.load([self.write("micro_nns.json", {"date": "2024-01-01T00:00:00"}, records)])
+        lines = readme_tables.micro_build_lines(results)
+        self.assertEqual(lines[2], "| office-sick-3dtk | 4 ms | 2 ms | 7 ms | 1.75x* | 3.50x |")
+
     def test_real_sweep_ranks_exact_timed_ranged_cells_at_the_distance(self):
         records = [dict(r, n_queries=5000) for r in fixtures.sweep_records(shapes=("kinect",))]
         for r in records:
