@@ -301,13 +301,60 @@ class KdTree {
   }
 
   // The smallest and largest coordinate on axis dim of the points in [begin, end).
+  // Several running minima and maxima, so that they are not one chain of dependent instructions; the
+  // min(c, m) operand order keeps the earlier of equal values, as std::min does.
   void extent(unsigned dim, std::uint32_t begin, std::uint32_t end, T& min, T& max) const {
     const T* c = points_.data() + dim * n_;
     min = max = c[begin];
-    for (std::uint32_t i = begin + 1; i < end; ++i) {
+    std::uint32_t i = begin + 1;
+#if defined(__SSE2__)
+    if constexpr (std::is_same_v<T, double>) {
+      if (end - i >= 8) {
+        __m128d lo[4], hi[4];
+        for (int j = 0; j < 4; ++j) lo[j] = hi[j] = _mm_set1_pd(min);
+        for (; i + 8 <= end; i += 8) {
+          for (int j = 0; j < 4; ++j) {
+            const __m128d v = _mm_loadu_pd(c + i + 2 * j);
+            lo[j] = _mm_min_pd(v, lo[j]);
+            hi[j] = _mm_max_pd(v, hi[j]);
+          }
+        }
+        alignas(16) double lanes[2][8];
+        for (int j = 0; j < 4; ++j) {
+          _mm_store_pd(lanes[0] + 2 * j, lo[j]);
+          _mm_store_pd(lanes[1] + 2 * j, hi[j]);
+        }
+        for (int j = 0; j < 8; ++j) {
+          min = std::min(min, lanes[0][j]);
+          max = std::max(max, lanes[1][j]);
+        }
+      }
+    }
+#endif
+    for (; i < end; ++i) {
       min = std::min(min, c[i]);
       max = std::max(max, c[i]);
     }
+  }
+
+  // Whether a point of [begin, end) lies on split_at on axis dim.
+  bool any_on_plane(unsigned dim, std::uint32_t begin, std::uint32_t end, T split_at) const {
+    const T* c = points_.data() + dim * n_;
+    std::uint32_t i = begin;
+#if defined(__SSE2__)
+    if constexpr (std::is_same_v<T, double>) {
+      const __m128d s = _mm_set1_pd(split_at);
+      for (; i + 8 <= end; i += 8) {
+        const __m128d a = _mm_or_pd(_mm_cmpeq_pd(_mm_loadu_pd(c + i), s), _mm_cmpeq_pd(_mm_loadu_pd(c + i + 2), s));
+        const __m128d b = _mm_or_pd(_mm_cmpeq_pd(_mm_loadu_pd(c + i + 4), s), _mm_cmpeq_pd(_mm_loadu_pd(c + i + 6), s));
+        if (_mm_movemask_pd(_mm_or_pd(a, b)) != 0) return true;
+      }
+    }
+#endif
+    for (; i < end; ++i) {
+      if (c[i] == split_at) return true;
+    }
+    return false;
   }
 
   // Swaps the points at a and b (coordinates and model index).
@@ -334,26 +381,32 @@ class KdTree {
   // Moves the points of [begin, end) below split_at on axis dim before the others; returns where the others
   // start. Which side a point falls on is a coin toss near the top of the tree, and mispredicted branches
   // were most of a build: this is Edelkamp and Weiss's block partition (BlockQuicksort), whose comparisons
-  // only count, a block at each end at a time, before the misplaced pairs found are swapped.
+  // only count, a block at each end at a time, before the misplaced pairs found are swapped. A block's
+  // points are compared eight at a time into a bit mask, whose set bits' offsets come from a table.
   std::uint32_t partition_below(std::uint32_t begin, std::uint32_t end, unsigned dim, T split_at) {
     constexpr std::uint32_t kBlock = 64;
     const T* c = points_.data() + dim * n_;
-    std::uint8_t misplaced_left[kBlock], misplaced_right[kBlock];
+    const std::array<std::uint64_t, 256>& offsets = set_bit_offsets();
+    std::uint8_t misplaced_left[kBlock + 8], misplaced_right[kBlock + 8];  // + 8: a table entry's last write
     std::uint32_t n_left = 0, n_right = 0, from_left = 0, from_right = 0;
     std::uint32_t left = begin, right = end;  // [begin, left) is below, [right, end) is not
     while (right - left >= 2 * kBlock) {
       if (n_left == 0) {
         from_left = 0;
-        for (std::uint32_t i = 0; i < kBlock; ++i) {
-          misplaced_left[n_left] = static_cast<std::uint8_t>(i);
-          n_left += !(c[left + i] < split_at);
+        for (std::uint32_t i = 0; i < kBlock; i += 8) {
+          const unsigned mask = not_below_mask(c + left + i, split_at);
+          const std::uint64_t at = offsets[mask] + i * 0x0101010101010101ull;
+          std::memcpy(misplaced_left + n_left, &at, sizeof at);
+          n_left += set_bits(mask);
         }
       }
       if (n_right == 0) {
         from_right = 0;
-        for (std::uint32_t i = 0; i < kBlock; ++i) {
-          misplaced_right[n_right] = static_cast<std::uint8_t>(i);
-          n_right += c[right - 1 - i] < split_at;
+        for (std::uint32_t i = 0; i < kBlock; i += 8) {
+          const unsigned mask = below_mask_downward(c + right - 1 - i, split_at);
+          const std::uint64_t at = offsets[mask] + i * 0x0101010101010101ull;
+          std::memcpy(misplaced_right + n_right, &at, sizeof at);
+          n_right += set_bits(mask);
         }
       }
       const std::uint32_t swaps = std::min(n_left, n_right);
@@ -369,6 +422,72 @@ class KdTree {
     }
     // The rest (a block with misplaced points left in it is still inside [left, right)).
     return partition_points(left, right, [&](std::uint32_t i) { return c[i] < split_at; });
+  }
+
+  // For each 8-bit mask, the offsets of its set bits, lowest first, one a byte.
+  static const std::array<std::uint64_t, 256>& set_bit_offsets() {
+    static const std::array<std::uint64_t, 256> table = [] {
+      std::array<std::uint64_t, 256> t{};
+      for (unsigned mask = 0; mask < 256; ++mask) {
+        unsigned n = 0;
+        for (unsigned b = 0; b < 8; ++b) {
+          if ((mask >> b) & 1u) t[mask] |= std::uint64_t(b) << (8 * n++);
+        }
+      }
+      return t;
+    }();
+    return table;
+  }
+
+  // The number of set bits of an 8-bit mask (without the POPCNT instruction, any x86-64 has no better).
+  static std::uint32_t set_bits(unsigned mask) {
+    static constexpr std::uint8_t kNibble[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+    return kNibble[mask & 15u] + kNibble[mask >> 4];
+  }
+
+  // Bit j: whether c[j] is not below split_at (j < 8).
+  static unsigned not_below_mask(const T* c, T split_at) {
+#if defined(__SSE2__)
+    if constexpr (std::is_same_v<T, double>) {
+      const __m128d s = _mm_set1_pd(split_at);
+      unsigned mask = 0;
+      for (int j = 0; j < 8; j += 2) mask |= unsigned(_mm_movemask_pd(_mm_cmpnlt_pd(_mm_loadu_pd(c + j), s))) << j;
+      return mask;
+    } else {
+      const __m128 s = _mm_set1_ps(split_at);
+      return unsigned(_mm_movemask_ps(_mm_cmpnlt_ps(_mm_loadu_ps(c), s))) |
+             unsigned(_mm_movemask_ps(_mm_cmpnlt_ps(_mm_loadu_ps(c + 4), s))) << 4;
+    }
+#else
+    unsigned mask = 0;
+    for (int j = 0; j < 8; ++j) mask |= unsigned(!(c[j] < split_at)) << j;
+    return mask;
+#endif
+  }
+
+  // Bit j: whether c[-j] is below split_at (j < 8: reading down from c).
+  static unsigned below_mask_downward(const T* c, T split_at) {
+#if defined(__SSE2__)
+    if constexpr (std::is_same_v<T, double>) {
+      const __m128d s = _mm_set1_pd(split_at);
+      unsigned mask = 0;
+      for (int j = 0; j < 8; j += 2) {
+        const __m128d v = _mm_loadu_pd(c - j - 1);  // c[-j-1], c[-j]: swapped so that c[-j] is lane 0
+        mask |= unsigned(_mm_movemask_pd(_mm_cmplt_pd(_mm_shuffle_pd(v, v, 1), s))) << j;
+      }
+      return mask;
+    } else {
+      const __m128 s = _mm_set1_ps(split_at);
+      const __m128 hi = _mm_loadu_ps(c - 3), lo = _mm_loadu_ps(c - 7);
+      constexpr int kReverse = _MM_SHUFFLE(0, 1, 2, 3);
+      return unsigned(_mm_movemask_ps(_mm_cmplt_ps(_mm_shuffle_ps(hi, hi, kReverse), s))) |
+             unsigned(_mm_movemask_ps(_mm_cmplt_ps(_mm_shuffle_ps(lo, lo, kReverse), s))) << 4;
+    }
+#else
+    unsigned mask = 0;
+    for (int j = 0; j < 8; ++j) mask |= unsigned(c[-j] < split_at) << j;
+    return mask;
+#endif
   }
 
   // Calls work(first, last) on [0, n) split in `threads` ranges, one thread each (this one when no other
@@ -439,6 +558,16 @@ class KdTree {
     append_subtree(out, right);
   }
 
+  // The axes from the cell's widest side to its narrowest; of equal sides the lower axis first.
+  static std::array<int, 3> sides_widest_first(const std::array<T, 3>& lo, const std::array<T, 3>& hi) {
+    std::array<int, 3> axes{0, 1, 2};
+    const auto wider = [&](int a, int b) { return hi[a] - lo[a] > hi[b] - lo[b]; };
+    if (wider(axes[1], axes[0])) std::swap(axes[0], axes[1]);
+    if (wider(axes[2], axes[1])) std::swap(axes[1], axes[2]);
+    if (wider(axes[1], axes[0])) std::swap(axes[0], axes[1]);
+    return axes;
+  }
+
   // Builds the subtree of the points [begin, end) inside the cell [lo, hi]: appends its nodes to out, on up
   // to `threads` threads.
   void build_node(Subtree& out, std::uint32_t begin, std::uint32_t end, std::array<T, 3> lo, std::array<T, 3> hi,
@@ -451,8 +580,7 @@ class KdTree {
     int dim = -1;
     float cut = 0;
     if (count > bucket_size_) {
-      std::array<int, 3> by_width{0, 1, 2};
-      std::stable_sort(by_width.begin(), by_width.end(), [&](int a, int b) { return hi[a] - lo[a] > hi[b] - lo[b]; });
+      const std::array<int, 3> by_width = sides_widest_first(lo, hi);
       for (const int d : by_width) {
         T pmin, pmax;
         extent(unsigned(d), begin, end, pmin, pmax);
@@ -477,7 +605,7 @@ class KdTree {
     // are gathered only when the left side wants some (else none moves: a pass over the right saved).
     const std::uint32_t n_lt = eq_begin - begin;
     std::uint32_t n_le = n_lt;
-    if (n_lt < count / 2 || n_lt == 0) {
+    if ((n_lt < count / 2 || n_lt == 0) && any_on_plane(unsigned(dim), eq_begin, end, split_at)) {
       const T* c = points_.data() + std::size_t(dim) * n_;
       n_le = partition_points(eq_begin, end, [&](std::uint32_t i) { return c[i] == split_at; }) - begin;
     }
