@@ -421,7 +421,38 @@ class KdTree {
       if (n_right == 0) right -= kBlock;
     }
     // The rest (a block with misplaced points left in it is still inside [left, right)).
-    return partition_points(left, right, [&](std::uint32_t i) { return c[i] < split_at; });
+    return partition_rest(left, right, c, split_at);
+  }
+
+  // partition_points(left, right, below split_at) for fewer than 256 points, without its branches: the
+  // points not below, from the left, are swapped pairwise with those below, from the right, until they meet.
+  std::uint32_t partition_rest(std::uint32_t left, std::uint32_t right, const T* c, T split_at) {
+    constexpr std::uint32_t kMax = 255;
+    const std::uint32_t n = right - left;
+    if (n > kMax) return partition_points(left, right, [&](std::uint32_t i) { return c[i] < split_at; });
+    const std::array<std::uint64_t, 256>& offsets = set_bit_offsets();
+    std::uint8_t not_below[kMax + 8], below[kMax + 8];
+    std::uint32_t n_not_below = 0, n_below = 0, i = 0;
+    for (; i + 8 <= n; i += 8) {
+      const unsigned up = not_below_mask(c + left + i, split_at), down = below_mask_downward(c + right - 1 - i, split_at);
+      const std::uint64_t at_up = offsets[up] + i * 0x0101010101010101ull, at_down = offsets[down] + i * 0x0101010101010101ull;
+      std::memcpy(not_below + n_not_below, &at_up, sizeof at_up);
+      std::memcpy(below + n_below, &at_down, sizeof at_down);
+      n_not_below += set_bits(up);
+      n_below += set_bits(down);
+    }
+    for (; i < n; ++i) {
+      not_below[n_not_below] = static_cast<std::uint8_t>(i);
+      n_not_below += !(c[left + i] < split_at);
+      below[n_below] = static_cast<std::uint8_t>(i);
+      n_below += c[right - 1 - i] < split_at;
+    }
+    for (std::uint32_t k = 0; k < n_not_below && k < n_below; ++k) {
+      const std::uint32_t a = left + not_below[k], b = right - 1 - below[k];
+      if (a >= b) break;
+      swap_points(a, b);
+    }
+    return left + n_below;
   }
 
   // For each 8-bit mask, the offsets of its set bits, lowest first, one a byte.
