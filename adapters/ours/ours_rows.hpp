@@ -43,6 +43,39 @@ void append_row(const std::vector<ours::Neighbour<T>>& best, const double* query
   out.end_query();
 }
 
+/// A 1-NN row kept aside until the rows are put in the caller's order; index kNone: nothing within the limit.
+struct NearestRow {
+  static constexpr PointIndex kNone = static_cast<PointIndex>(-1);
+  PointIndex index = kNone;
+  double sq_m2 = 0.0;
+};
+
+/// The row of one 1-NN query, as append_row would write it with k = 1.
+template <typename T>
+NearestRow nearest_row(const std::vector<ours::Neighbour<T>>& best, const double* query, const Cloud& model,
+                       double limit_sq_m2) {
+  NearestRow nearest;
+  if constexpr (std::is_same_v<T, double>) {
+    if (!best.empty()) nearest = {best.front().index, best.front().sq_dist};
+  } else {
+    for (const auto& n : best) {
+      const double sq = sq_dist_m2(query, model.col(n.index).data());
+      if (sq > limit_sq_m2) continue;
+      if (nearest.index == NearestRow::kNone || sq < nearest.sq_m2 || (sq == nearest.sq_m2 && n.index < nearest.index))
+        nearest = {n.index, sq};
+    }
+  }
+  return nearest;
+}
+
+/// Appends the rows of 1-NN answers, in their order.
+inline void append_nearest_rows(const std::vector<NearestRow>& rows, Neighbours& out) {
+  for (const NearestRow& row : rows) {
+    if (row.index != NearestRow::kNone) out.push(row.index, row.sq_m2);
+    out.end_query();
+  }
+}
+
 /// Memory for answering a batch in Morton order, kept by each thread between batches: fresh memory costs
 /// a page fault a page on every batch (most of the time of a 60,000-query batch), unless it is huge.
 struct MortonScratch {
@@ -50,6 +83,7 @@ struct MortonScratch {
   ours::QueryOrder order;
   std::vector<double> sorted_xyz;  ///< the queries in Morton order
   Neighbours answered;             ///< their rows, in that order
+  std::vector<NearestRow> nearest;  ///< for 1-NN: their rows, in the caller's order
   std::vector<Box> share_boxes;    ///< on threads: the box of each member's share
 
   /// An empty share's box: lo = +inf, hi = -inf, which joins to nothing.
@@ -174,9 +208,21 @@ void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, d
   scratch.sorted_xyz.resize(3 * rest);
   for (std::size_t s = 0; s < rest; ++s)
     std::copy_n(queries.data() + 3 * (probe + order[s]), 3, scratch.sorted_xyz.data() + 3 * s);
-  scratch.answered.reset(rest, rest);
-  answer(scratch.sorted_xyz.data(), rest, [&](std::size_t s) { return probe + order[s]; }, scratch.answered);
-  append_rows_in_order(scratch.answered, order, out);
+  const auto query_of = [&](std::size_t s) { return probe + order[s]; };
+  if (k == 1) {
+    // A row of at most one neighbour is stored straight at its query's place, in one pass.
+    scratch.nearest.resize(rest);
+    tree.knn_batch_bounded(
+        scratch.sorted_xyz.data(), rest, k, [&](std::size_t s) { return search_limit_of(query_of(s)); }, buffers,
+        [&](std::size_t s, const std::vector<ours::Neighbour<T>>& best) {
+          scratch.nearest[order[s]] = nearest_row<T>(best, scratch.sorted_xyz.data() + 3 * s, model, limit_sq_m2);
+        });
+    append_nearest_rows(scratch.nearest, out);
+  } else {
+    scratch.answered.reset(rest, rest);
+    answer(scratch.sorted_xyz.data(), rest, query_of, scratch.answered);
+    append_rows_in_order(scratch.answered, order, out);
+  }
   scratch.release_if_large();
 }
 
