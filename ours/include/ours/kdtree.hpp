@@ -302,7 +302,7 @@ class KdTree {
 
   // The smallest and largest coordinate on axis dim of the points in [begin, end).
   // Several running minima and maxima, so that they are not one chain of dependent instructions; the
-  // min(c, m) operand order keeps the earlier of equal values, as std::min does.
+  // min(c, m) operand order keeps the running value on ties, as std::min does.
   void extent(unsigned dim, std::uint32_t begin, std::uint32_t end, T& min, T& max) const {
     const T* c = points_.data() + dim * n_;
     min = max = c[begin];
@@ -470,7 +470,7 @@ class KdTree {
     return table;
   }
 
-  // The number of set bits of an 8-bit mask (without the POPCNT instruction, any x86-64 has no better).
+  // The number of set bits of an 8-bit mask (baseline x86-64 has no POPCNT: the builtin calls libgcc).
   static std::uint32_t set_bits(unsigned mask) {
     static constexpr std::uint8_t kNibble[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
     return kNibble[mask & 15u] + kNibble[mask >> 4];
