@@ -173,30 +173,36 @@ def _name_parts(rec):
     return str(rec.get("name", "")).split("/")
 
 
-def _read_micro(results, rec):
-    """Ranged1NN/<pair>/<adapter[variant]>/<max dist>: keeps each repetition; micro_cells() takes the fastest."""
+def _micro_record(rec, n_parts):
+    """(name parts, adapter, variant or None, CPU seconds) of a micro_nns record of n_parts, else None."""
     parts = _name_parts(rec)
     cpu_time, unit = _number(rec.get("cpu_time")), rec.get("time_unit")
-    if len(parts) != 4 or cpu_time is None or unit not in UNIT_SECONDS:
-        return
-    seconds = cpu_time * UNIT_SECONDS[unit]
+    if len(parts) != n_parts or cpu_time is None or unit not in UNIT_SECONDS:
+        return None
     adapter, _, variant = parts[2].partition("[")
+    return parts, adapter, variant.rstrip("]") or None, cpu_time * UNIT_SECONDS[unit]
+
+
+def _read_micro(results, rec):
+    """Ranged1NN/<pair>/<adapter[variant]>/<max dist>: keeps each repetition; micro_cells() takes the fastest."""
+    got = _micro_record(rec, 4)
+    if got is None:
+        return
+    parts, adapter, variant, seconds = got
     try:
         max_dist = float(parts[3])
     except ValueError:
         return
     n_queries = _number(rec.get("items_per_call"))
-    results.micro.append(MicroCell(parts[1], adapter, variant.rstrip("]") or None, max_dist, seconds, n_queries))
+    results.micro.append(MicroCell(parts[1], adapter, variant, max_dist, seconds, n_queries))
 
 
 def _read_micro_build(results, rec):
     """Build/<model>/<adapter[variant]> (a threaded build's name has more parts and is not read)."""
-    parts = _name_parts(rec)
-    cpu_time, unit = _number(rec.get("cpu_time")), rec.get("time_unit")
-    if len(parts) != 3 or cpu_time is None or unit not in UNIT_SECONDS:
-        return
-    adapter, _, variant = parts[2].partition("[")
-    results.micro_builds.append(MicroBuild(parts[1], adapter, variant.rstrip("]") or None, cpu_time * UNIT_SECONDS[unit]))
+    got = _micro_record(rec, 3)
+    if got is not None:
+        parts, adapter, variant, seconds = got
+        results.micro_builds.append(MicroBuild(parts[1], adapter, variant, seconds))
 
 
 def micro_build_cells(results):

@@ -186,12 +186,15 @@ void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, d
   std::vector<std::pair<double, PointIndex>> row;
   // Answers the count queries at xyz (the i-th is query query_of(i) of the batch) into rows; returns how
   // many followed the previous one closely.
-  const auto answer = [&](const double* xyz, std::size_t count, auto&& query_of, Neighbours& rows) {
+  // Searches the count queries at xyz (the i-th is query query_of(i) of the batch), calling emit(i, best).
+  const auto search = [&](const double* xyz, std::size_t count, auto&& query_of, auto&& emit) {
     return tree.knn_batch_bounded(
-        xyz, count, k, [&](std::size_t i) { return search_limit_of(query_of(i)); }, buffers,
-        [&](std::size_t i, const std::vector<ours::Neighbour<T>>& best) {
-          append_row<T>(best, xyz + 3 * i, model, k, limit_sq_m2, row, rows);
-        });
+        xyz, count, k, [&](std::size_t i) { return search_limit_of(query_of(i)); }, buffers, emit);
+  };
+  const auto answer = [&](const double* xyz, std::size_t count, auto&& query_of, Neighbours& rows) {
+    return search(xyz, count, query_of, [&](std::size_t i, const std::vector<ours::Neighbour<T>>& best) {
+      append_row<T>(best, xyz + 3 * i, model, k, limit_sq_m2, row, rows);
+    });
   };
   out.reset(n, n);
   const std::size_t probe = order_choice == Order::automatic ? std::min(n, kOrderProbe) : 0;
@@ -212,11 +215,9 @@ void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, d
   if (k == 1) {
     // A row of at most one neighbour is stored straight at its query's place, in one pass.
     scratch.nearest.resize(rest);
-    tree.knn_batch_bounded(
-        scratch.sorted_xyz.data(), rest, k, [&](std::size_t s) { return search_limit_of(query_of(s)); }, buffers,
-        [&](std::size_t s, const std::vector<ours::Neighbour<T>>& best) {
-          scratch.nearest[order[s]] = nearest_row<T>(best, scratch.sorted_xyz.data() + 3 * s, model, limit_sq_m2);
-        });
+    search(scratch.sorted_xyz.data(), rest, query_of, [&](std::size_t s, const std::vector<ours::Neighbour<T>>& best) {
+      scratch.nearest[order[s]] = nearest_row<T>(best, scratch.sorted_xyz.data() + 3 * s, model, limit_sq_m2);
+    });
     append_nearest_rows(scratch.nearest, out);
   } else {
     scratch.answered.reset(rest, rest);
