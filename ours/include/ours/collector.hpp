@@ -24,9 +24,6 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
 #include <immintrin.h>
 #define OURS_WIDE_SIMD 1
@@ -35,9 +32,10 @@
 namespace ours {
 
 /// The standard allocator, except that resize() leaves numbers uninitialised (a build writes every
-/// coordinate and index at once, and zeroing hundreds of megabytes first only costs time), and that on
-/// Linux large blocks ask for transparent huge pages: a first touch then maps 2 MB, not 4 KB, and page
-/// faults were a third of building a 16M-point tree.
+/// coordinate and index at once, and zeroing hundreds of megabytes first only costs time). Large blocks
+/// are not advised for transparent huge pages: where the host takes freed 2 MB blocks back (a VM's free
+/// page reporting), a first touch of a huge page faults on the host too, and a 16M-point build then
+/// took twice as long as with 4 KB pages, while it gained a fifth where huge pages were at hand.
 template <typename U>
 struct DefaultInit : std::allocator<U> {
   template <typename V>
@@ -48,27 +46,6 @@ struct DefaultInit : std::allocator<U> {
   template <typename V>
   DefaultInit(const DefaultInit<V>&) noexcept {}
 
-  static constexpr std::size_t kHugePage = std::size_t(2) << 20;
-  static constexpr std::size_t kHugeBlockMin = 2 * kHugePage;  // smaller blocks: the standard allocator
-
-  U* allocate(std::size_t n) {
-#if defined(__linux__)
-    const std::size_t bytes = n * sizeof(U);
-    if (bytes >= kHugeBlockMin) {
-      void* block = std::aligned_alloc(kHugePage, (bytes + kHugePage - 1) / kHugePage * kHugePage);
-      if (!block) throw std::bad_alloc();
-      ::madvise(block, bytes, MADV_HUGEPAGE);  // advice only: without it the block works the same
-      return static_cast<U*>(block);
-    }
-#endif
-    return std::allocator<U>::allocate(n);
-  }
-  void deallocate(U* block, std::size_t n) noexcept {
-#if defined(__linux__)
-    if (n * sizeof(U) >= kHugeBlockMin) return std::free(block);
-#endif
-    std::allocator<U>::deallocate(block, n);
-  }
   template <typename V, typename... Args>
   void construct(V* at, Args&&... args) {
     if constexpr (sizeof...(Args) == 0) ::new (static_cast<void*>(at)) V;
@@ -76,7 +53,7 @@ struct DefaultInit : std::allocator<U> {
   }
 };
 
-/// Raw memory from DefaultInit (huge pages for large blocks) that holds arrays of different types in
+/// Raw memory from DefaultInit that holds arrays of different types in
 /// turn: as<U>() starts the lifetime of an array of U (ending whatever lived there). A build's scratch
 /// arrays can then live in the pages of its final arrays, which are faulted in once instead of twice.
 class ReusableBlock {
