@@ -184,13 +184,13 @@ void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, d
   const auto n = static_cast<std::size_t>(queries.cols());
   typename Tree::Buffers buffers;
   std::vector<std::pair<double, PointIndex>> row;
-  // Answers the count queries at xyz (the i-th is query query_of(i) of the batch) into rows; returns how
-  // many followed the previous one closely.
-  // Searches the count queries at xyz (the i-th is query query_of(i) of the batch), calling emit(i, best).
+  // Searches the count queries at xyz (the i-th is query query_of(i) of the batch), calling emit(i, best);
+  // returns how many followed the previous one closely.
   const auto search = [&](const double* xyz, std::size_t count, auto&& query_of, auto&& emit) {
     return tree.knn_batch_bounded(
         xyz, count, k, [&](std::size_t i) { return search_limit_of(query_of(i)); }, buffers, emit);
   };
+  // The same, appending each query's row to rows.
   const auto answer = [&](const double* xyz, std::size_t count, auto&& query_of, Neighbours& rows) {
     return search(xyz, count, query_of, [&](std::size_t i, const std::vector<ours::Neighbour<T>>& best) {
       append_row<T>(best, xyz + 3 * i, model, k, limit_sq_m2, row, rows);
