@@ -11,6 +11,7 @@ import fig_icp  # noqa: E402
 import fig_scale  # noqa: E402
 import fig_speedup  # noqa: E402
 import fig_sweep  # noqa: E402
+import fig_threads  # noqa: E402
 import provenance  # noqa: E402
 import results_io  # noqa: E402
 import style  # noqa: E402
@@ -55,6 +56,7 @@ def main(argv=None):
     fig_sweep.grid(results, args.out, best=True)
     fig_scale.fig8(results, args.out)
     fig_speedup.fig9(results, args.out)
+    fig_threads.fig10(results, args.out)
     return 0
 
 

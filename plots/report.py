@@ -16,6 +16,7 @@ import fig_icp  # noqa: E402
 import fig_scale  # noqa: E402
 import fig_speedup  # noqa: E402
 import fig_sweep  # noqa: E402
+import fig_threads  # noqa: E402
 import findings  # noqa: E402
 import provenance  # noqa: E402
 from table1 import table1_lines  # noqa: E402
@@ -143,6 +144,16 @@ def speedup_figures(results):
     return out
 
 
+def threads_figures(results):
+    out = []
+    for title, rates in fig_threads.panels(results):
+        traces = [trace(*zip(*sorted((t, r / 1e6) for t, r in by_threads.items())), a, a, results, "ranged",
+                        results.adapter_info(a).get("ranged")) for a, by_threads in sorted(rates.items())]
+        out.append(figure(traces, f"Throughput against threads: {title}", "threads", "million queries per second",
+                          log_y=False, buttons=False))
+    return out
+
+
 def all_figures(results):
     """[(section, [figure])] for every figure the results allow."""
     sections = []
@@ -163,7 +174,8 @@ def all_figures(results):
     if fig_icp.bucket_curves(results):
         sections.append(("Figure 2: ICP against bucket size", [bucket_figure(results)]))
     for title, figs in (("Figure 8: scale", scale_figures(results)),
-                        ("Figure 9: speed-up over the faster nanoflann", speedup_figures(results))):
+                        ("Figure 9: speed-up over the faster nanoflann", speedup_figures(results)),
+                        ("Figure 10: throughput against threads", threads_figures(results))):
         if figs:
             sections.append((title, figs))
     return sections

@@ -13,15 +13,19 @@ SHAPES = ("hollow_cube", "filled_cube", "hollow_sphere", "filled_sphere")
 UNIT_SECONDS = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}
 
 # seconds is None for a skipped cell; max_dist_m is None for k-NN (it does not depend on the distance);
-# n_points / n_queries: model and query sizes (record fields, else context.datasets; None when unknown).
+# n_points / n_queries: model and query sizes (record fields, else context.datasets; None when unknown); threads:
+# what the timed calls ran on (wall time).
 SweepCell = namedtuple("SweepCell", "model query adapter search strategy max_dist_m k seconds skipped found agrees "
-                                    "n_points n_queries", defaults=(None, None))
+                                    "n_points n_queries threads", defaults=(None, None, 1))
 # file: index into Results.files, so that figures can take each build from one run rather than mix runs.
-Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points file", defaults=(None,))
+Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points file threads", defaults=(None, 1))
 # Google Benchmark micro-benchmarks (bench/micro_nns): the fastest repetition's CPU time of one call.
 MicroCell = namedtuple("MicroCell", "pair adapter variant max_dist_m cpu_seconds n_queries")
 # micro_nns's single-threaded builds (Build/<model>/<adapter>): one record a repetition.
 MicroBuild = namedtuple("MicroBuild", "model adapter variant cpu_seconds")
+# Ranged 1-NN's wall time on 1 thread (Ranged1NN/<pair>/<adapter>/<m>) and on n (.../threads:<n>/real_time), one
+# record a repetition: what the threads figure draws.
+MicroWall = namedtuple("MicroWall", "pair adapter variant max_dist_m threads wall_seconds n_queries")
 # ref_*: the final pose's error against the pair's reference (None without one); settings: ICP_SETTINGS and
 # initial_pose as the record gives them; bucket_source: "best" (from run_icp --buckets-from's file), "default"
 # (the adapter is not in that file) or None (no file named).
@@ -80,6 +84,8 @@ class Results:
         self.icp = []        # IcpRun
         self.micro = []      # MicroCell
         self.micro_builds = []  # MicroBuild
+        self.micro_walls = []  # MicroWall
+        self.sweep_threads = []  # SweepCell at every thread count run (results.sweep: the fewest a cell ran on)
         self.build_skips = {}  # (model, adapter) -> reason the build did not run
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
         self.duplicates = {}  # record name -> [paths of every file holding it], when more than one
@@ -123,7 +129,7 @@ def _read_sweep(results, rec, sizes=None):
     results.sweep.append(SweepCell(model, query, adapter, search, rec.get("strategy") or "?",
                                    max_dist, k, seconds, skipped, _number(rec.get("found")),
                                    rec.get("agrees") if isinstance(rec.get("agrees"), bool) else None,
-                                   n_points, n_queries))
+                                   n_points, n_queries, record_threads(rec)))
     results._note_adapter(rec)
 
 
@@ -140,7 +146,7 @@ def _read_build(results, rec):
         warn(f"{rec.get('name')}: no build_seconds: ignored")
         return
     results.builds.append(Build(model, adapter, seconds, _number(rec.get("index_bytes")),
-                                _number(rec.get("n_points")), len(results.files) - 1))
+                                _number(rec.get("n_points")), len(results.files) - 1, record_threads(rec)))
     results._note_adapter(rec)
 
 
@@ -197,6 +203,26 @@ def _read_micro(results, rec):
     results.micro.append(MicroCell(parts[1], adapter, variant, max_dist, seconds, n_queries))
 
 
+def _read_micro_wall(results, rec):
+    """Ranged1NN/<pair>/<adapter[variant]>/<m>, and the same with /threads:<n>/real_time: wall time a call."""
+    parts = _name_parts(rec)
+    seconds = record_seconds(rec, ())
+    threads = 1
+    if len(parts) == 6 and parts[4].startswith("threads:") and parts[5] == "real_time":
+        threads = int(parts[4][len("threads:"):]) if parts[4][len("threads:"):].isdigit() else None
+    elif len(parts) != 4:
+        return
+    try:
+        max_dist = float(parts[3])
+    except ValueError:
+        return
+    if seconds is None or not threads:
+        return
+    adapter, _, variant = parts[2].partition("[")
+    results.micro_walls.append(MicroWall(parts[1], adapter, variant.rstrip("]") or None, max_dist, threads, seconds,
+                                         _number(rec.get("items_per_call"))))
+
+
 def _read_micro_build(results, rec):
     """Build/<model>/<adapter[variant]> (a threaded build's name has more parts and is not read)."""
     got = _micro_record(rec, 3)
@@ -240,13 +266,13 @@ def build_rank(results, build, ranks=None):
 
 
 def latest_builds(results):
-    """{(model, adapter): Build} at the largest set size any file built it at (the grid's beside quick's), from the
-    newest file among those (by context date, then reading order)."""
+    """{(model, adapter): Build} at the largest set size any file built it at (the grid's beside quick's), on the
+    fewest threads, from the newest file among those (by context date, then reading order)."""
     ranks = file_ranks(results)
     out = {}
     for b in results.builds:
         key = (b.model, b.adapter)
-        order = (size_order(b.n_points), build_rank(results, b, ranks))
+        order = (size_order(b.n_points), -b.threads, build_rank(results, b, ranks))
         if key not in out or order >= out[key][0]:
             out[key] = (order, b)
     return {k: b for k, (_, b) in out.items()}
@@ -275,12 +301,26 @@ def run_name(rec):
     return str(rec.get("run_name") or rec.get("name", ""))
 
 
-def sized_run_name(rec, sizes):
-    """The cell with the set sizes it ran at: the same name at other sizes (quick's 15,000 points beside the grid's
-    60,000) is another measurement, not a duplicate; _one_set_size keeps one size per combination."""
+def record_threads(rec):
+    """The threads a record's timed calls ran on (1 when it does not say)."""
+    threads = _number(rec.get("threads"))
+    return int(threads) if threads and threads >= 1 else 1
+
+
+def run_threads(context):
+    """The threads a run was given (its config's `threads`; 1 when it does not say)."""
+    config = context.get("config") if isinstance(context.get("config"), dict) else {}
+    return record_threads(config)
+
+
+def sized_run_name(rec, sizes, threads=1):
+    """The cell with the set sizes and the threads its run was given: the same name at other sizes (quick's 15,000
+    points beside the grid's 60,000) or in a run on other threads is another measurement, not a duplicate;
+    _one_set_size keeps one size per combination."""
     n_points = _number(rec.get("n_points")) or sizes.get((rec.get("model"), "model"))
     n_queries = _number(rec.get("n_queries")) or sizes.get((rec.get("query"), "query"))
     parts = [f"{n:g} {what}" for n, what in ((n_points, "points"), (n_queries, "queries")) if n]
+    parts += [f"run on {threads} threads"] if threads > 1 else []
     return run_name(rec) + (f" ({', '.join(parts)})" if parts else "")
 
 
@@ -377,11 +417,13 @@ def load(paths, prefer=None):
         for rec in micro:
             if rec.get("run_type") != "aggregate":
                 (_read_micro if _kind(rec) == "micro" else _read_micro_build)(results, rec)
+                if _kind(rec) == "micro":
+                    _read_micro_wall(results, rec)
         for rec in one_record_per_cell(r for r in benchmarks if isinstance(r, dict)
                                        and _kind(r) not in ("micro", "micro_build")):
             kind = _kind(rec)
             if kind in ("sweep", "build"):
-                seen.setdefault(sized_run_name(rec, sizes), []).append(path)
+                seen.setdefault(sized_run_name(rec, sizes, run_threads(context)), []).append(path)
             elif kind == "icp":  # each ICP experiment is drawn on its own: the same cell in two is no conflict
                 seen.setdefault(f"{experiment_of(context)}: {run_name(rec)}", []).append(path)
             if kind == "sweep":
@@ -394,8 +436,8 @@ def load(paths, prefer=None):
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
     rank = {path: r for (path, _), r in zip(results.files, file_ranks(results))}
     results.sweep = _one_set_size(results.sweep, sweep_files, rank)
-    results.sweep = _one_k(_last_wins(results.sweep,
-                                      lambda c: (c.model, c.query, c.adapter, c.search, c.strategy, c.max_dist_m, c.k)))
+    results.sweep_threads = _one_k(_last_wins(results.sweep, lambda c: (*_sweep_key(c), c.threads)))
+    results.sweep = _fewest_threads(results.sweep_threads)
     results.icp = _last_wins(results.icp, lambda r: (r.experiment, r.pair, r.adapter, r.bucket_size))
     return results
 
@@ -434,6 +476,24 @@ def _last_wins(items, key):
     for item in items:
         by_key[key(item)] = item
     return list(by_key.values())
+
+
+def _sweep_key(cell):
+    return cell.model, cell.query, cell.adapter, cell.search, cell.strategy, cell.max_dist_m, cell.k
+
+
+def _fewest_threads(cells):
+    """Each cell at the fewest threads it ran on (the paper's comparison is single-threaded); says so when a cell
+    drawn ran on more."""
+    fewest = {}
+    for cell in cells:
+        key = _sweep_key(cell)
+        if key not in fewest or cell.threads < fewest[key].threads:
+            fewest[key] = cell
+    threaded = Counter(c.threads for c in fewest.values() if c.threads > 1)
+    for threads, n in sorted(threaded.items()):
+        warn(f"{n} sweep cells ran on {threads} threads only: their wall times are drawn as they are")
+    return list(fewest.values())
 
 
 def _one_k(cells):
