@@ -25,6 +25,21 @@ def write_provenance(check, out_dir):
     (out_dir / "PROVENANCE.md").write_text("\n".join(lines + [f"- {line}" for line in check.lines]) + "\n")
 
 
+# Every figure make_figures draws: one left in the folder from earlier inputs that these no longer allow would be
+# read as drawn from them.
+FIGURE_STEMS = ("fig2_icp_bucket", "fig3_hollow_cube_vs_hollow_sphere", "fig3_strategies", "fig4_construction",
+                "fig5_icp_real", "fig6_grid_all", "fig7_grid_best", "fig8_scale", "fig9_speedup", "fig10_threads")
+
+
+def remove_stale(out_dir, drawn):
+    """Removes the figures of FIGURE_STEMS these inputs did not draw."""
+    for stem in FIGURE_STEMS:
+        for path in (out_dir / f"{stem}.png", out_dir / f"{stem}.svg"):
+            if stem not in drawn and path.is_file():
+                path.unlink()
+                print(f"removed {path}: not drawn from these inputs")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("results", nargs="*", type=Path,
@@ -47,16 +62,12 @@ def main(argv=None):
     style.WARNING = check.banner()
     style.setup()
     write_table1(results, args.out)
-    fig_icp.fig2(results, args.out)
-    fig_sweep.fig3(results, args.out)
-    fig_sweep.fig3_strategies(results, args.out)
-    fig_build.fig4(results, args.out)
-    fig_icp.fig5(results, args.out)
-    fig_sweep.grid(results, args.out, best=False)
-    fig_sweep.grid(results, args.out, best=True)
-    fig_scale.fig8(results, args.out)
-    fig_speedup.fig9(results, args.out)
-    fig_threads.fig10(results, args.out)
+    written = [fig_icp.fig2(results, args.out), fig_sweep.fig3(results, args.out),
+               fig_sweep.fig3_strategies(results, args.out), fig_build.fig4(results, args.out),
+               fig_icp.fig5(results, args.out), fig_sweep.grid(results, args.out, best=False),
+               fig_sweep.grid(results, args.out, best=True), fig_scale.fig8(results, args.out),
+               fig_speedup.fig9(results, args.out), fig_threads.fig10(results, args.out)]
+    remove_stale(args.out, {png.stem for png in written if png})
     return 0
 
 

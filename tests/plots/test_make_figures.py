@@ -52,6 +52,21 @@ class MakeFiguresTest(unittest.TestCase):
         self.assertTrue((out / "fig6_grid_all.png").is_file())  # partial grid: drawn, empty panels say so
         self.assertTrue((out / "fig7_grid_best.png").is_file())
 
+    def test_figures_these_inputs_cannot_draw_are_removed(self):
+        out = self.dir / "figures"
+        self.assertEqual(run([*fixtures.write_all(self.dir), "--out", out]).returncode, 0)
+        (out / "notes.md").write_text("mine")
+        sweep_only = fixtures.write(self.dir / "sweep.json", "paper",
+                                    fixtures.sweep_records(shapes=("filled_cube", "filled_sphere")))
+        proc = run([sweep_only, "--out", out])
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        for stem in ("fig2_icp_bucket", "fig3_hollow_cube_vs_hollow_sphere", "fig4_construction", "fig5_icp_real"):
+            self.assertFalse((out / f"{stem}.png").exists(), stem)
+            self.assertFalse((out / f"{stem}.svg").exists(), stem)
+            self.assertIn(f"removed {out / stem}.png", proc.stdout)
+        self.assertTrue((out / "fig6_grid_all.png").is_file())
+        self.assertEqual((out / "notes.md").read_text(), "mine")
+
     def test_no_results_file_is_a_message_not_a_crash(self):
         bad = self.dir / "bad.json"
         bad.write_text(json.dumps({"context": {}}))
