@@ -1,7 +1,6 @@
 """Figure 9: speed-up over the faster nanoflann (Debian's or the newest) against the maximal distance (ranged 1-NN).
 
 Ratios of two adapters timed in the same run survive a noisy machine better than absolute times."""
-import math
 
 import style
 from fig_icp import NANOFLANNS
@@ -87,19 +86,7 @@ def fig9(results, out_dir):
     if not panels:
         warn("fig9: no ranged times of nanoflann beside other adapters: figure skipped")
         return None
-    cols = min(2, len(panels))
-    rows = math.ceil(len(panels) / cols)
-    fig = plt.figure(figsize=(style.PAGE_WIDTH_IN, 3.6 * rows + 1.6))
-    grid_spec = fig.add_gridspec(rows + 1, cols, height_ratios=[3.6] * rows + [1.3], hspace=0.45, wspace=0.2)
-    adapters, classes = set(), set()
-    for i, (title, ratios) in enumerate(panels):
-        draw_ratios(fig.add_subplot(grid_spec[i // cols, i % cols]), results, title, ratios)
-        adapters |= set(ratios)
-        classes |= {style.strategy_class("ranged", results.adapter_info(a).get("ranged")) for a in ratios}
-    fig.suptitle("Figure 9: speed-up of ranged 1-NN over the faster nanoflann (its time / the adapter's; above 1 = "
-                 "faster)",
-                 y=0.95)
-    style.legends_in(fig.add_subplot(grid_spec[rows, :]), sorted(adapters, key=lambda a: (style.family(a), a)),
-                     classes, results, skip=False)
+    fig = style.ranged_panels_figure(results, panels, draw_ratios, 2, 3.6, "Figure 9: speed-up of ranged 1-NN over "
+                                     "the faster nanoflann (its time / the adapter's; above 1 = faster)", 0.95)
     return style.save(fig, out_dir, "fig9_speedup")
 

@@ -2,7 +2,6 @@
 
 Drawn from micro_nns's threaded benchmarks (`--threads N`: 1 to N threads on the Figure 3 pair and SICK) and from
 sweep cells run at more than one thread count (`run_sweep --threads N`, one results file per count)."""
-import math
 
 import style
 from fig_speedup import MICRO_TITLES
@@ -86,17 +85,7 @@ def fig10(results, out_dir):
     if not panels_drawn:
         warn("fig10: no ranged search timed on more than one thread count: figure skipped")
         return None
-    cols = min(COLUMNS, len(panels_drawn))
-    rows = math.ceil(len(panels_drawn) / cols)
-    fig = plt.figure(figsize=(style.PAGE_WIDTH_IN, 3.0 * rows + 1.4))
-    grid_spec = fig.add_gridspec(rows + 1, cols, height_ratios=[3.0] * rows + [1.0], hspace=0.5, wspace=0.25)
-    adapters, classes = set(), set()
-    for i, (title, rates) in enumerate(panels_drawn):
-        draw_panel(fig.add_subplot(grid_spec[i // cols, i % cols]), results, title, rates)
-        adapters |= set(rates)
-        classes |= {style.strategy_class("ranged", results.adapter_info(a).get("ranged")) for a in rates}
-    fig.suptitle("Figure 10: ranged 1-NN throughput against threads (wall time of a whole batch; dotted: the "
-                 "fastest single thread times the threads)", y=0.97)
-    style.legends_in(fig.add_subplot(grid_spec[rows, :]), sorted(adapters, key=lambda a: (style.family(a), a)),
-                     classes, results, skip=False)
+    fig = style.ranged_panels_figure(results, panels_drawn, draw_panel, COLUMNS, 3.0, "Figure 10: ranged 1-NN "
+                                     "throughput against threads (wall time of a whole batch; dotted: the fastest "
+                                     "single thread times the threads)", 0.97)
     return style.save(fig, out_dir, "fig10_threads")

@@ -2,6 +2,7 @@
 
 Approximate adapters are drawn grey with hollow markers and labelled so; figures are at most MAX_WIDTH_PX wide.
 """
+import math
 import zlib
 
 import matplotlib
@@ -168,10 +169,29 @@ def legends_in(ax, adapters, classes, results, ncol=4, skip=True):
     first = ax.legend(handles=adapter_handles(adapters, results), loc="upper left", ncol=ncol, frameon=False,
                       title="adapter (colour: library, marker: structure)", alignment="left")
     ax.add_artist(first)
+    first.set_clip_on(False)  # an added artist is clipped to the axis: a long list would lose its last rows
     extra = strategy_handles(classes) + ([skip_handle()] if skip else [])
     if extra:
         ax.legend(handles=extra, loc="upper right", ncol=1, frameon=False, alignment="left",
                   title="line style: how the search is answered")
+
+
+def ranged_panels_figure(results, panels, draw, cols, panel_height, title, title_y):
+    """A figure of panels [(panel title, {adapter: data})], each drawn by draw(ax, results, panel title, data), in
+    rows of cols, with one legend row of every adapter and ranged strategy drawn below them."""
+    cols = min(cols, len(panels))
+    rows = math.ceil(len(panels) / cols)
+    fig = plt.figure(figsize=(PAGE_WIDTH_IN, panel_height * rows + 1.5))
+    grid_spec = fig.add_gridspec(rows + 1, cols, height_ratios=[panel_height] * rows + [1.2], hspace=0.5, wspace=0.22)
+    adapters, classes = set(), set()
+    for i, (panel_title, data) in enumerate(panels):
+        draw(fig.add_subplot(grid_spec[i // cols, i % cols]), results, panel_title, data)
+        adapters |= set(data)
+        classes |= {strategy_class("ranged", results.adapter_info(a).get("ranged")) for a in data}
+    fig.suptitle(title, y=title_y)
+    legends_in(fig.add_subplot(grid_spec[rows, :]), sorted(adapters, key=lambda a: (family(a), a)), classes, results,
+               skip=False)
+    return fig
 
 
 # Set by make_figures.py when its inputs are not a clean run: written across the top of every figure.

@@ -81,6 +81,22 @@ class FigureRulesTest(unittest.TestCase):
         families = {style.family(a) for a in fixtures.ADAPTERS if a != fixtures.APPROX}
         self.assertEqual(len(colours), len(families))
 
+    def test_a_long_adapter_legend_is_saved_whole(self):
+        style.setup()
+        fig = style.plt.figure(figsize=(10, 4))
+        grid_spec = fig.add_gridspec(2, 1, height_ratios=[3, 0.6])
+        fig.add_subplot(grid_spec[0])
+        legend_ax = fig.add_subplot(grid_spec[1])
+        style.legends_in(legend_ax, [f"adapter_{i}" for i in range(40)], {"native"}, self.results)
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        [adapters] = [a for a in legend_ax.artists if a is not legend_ax.get_legend()]
+        saved = fig.get_tightbbox(renderer).transformed(fig.dpi_scale_trans)  # what bbox_inches="tight" keeps
+        shown = adapters.get_window_extent(renderer)
+        self.assertLess(shown.y0, legend_ax.get_window_extent(renderer).y0)  # the list overflows its axis ...
+        self.assertLessEqual(saved.y0, shown.y0 + 1e-6)  # ... and is saved all the same
+        style.plt.close(fig)
+
     def test_clouds_in_size_order(self):
         names = ["city-15k", "city-16m", "city-1m", "city-250k", "city-4m", "city-60k", "hollow_cube"]
         sizes = {"city-15k": 15e3, "city-60k": 6e4, "city-250k": 2.5e5, "city-1m": 1e6, "city-4m": 4e6, "city-16m": 1.6e7,
