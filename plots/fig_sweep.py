@@ -4,7 +4,7 @@ import math
 import numpy as np
 
 import style
-from results_io import SHAPES, sweep_series, warn
+from results_io import SHAPES, size_order, sweep_series, warn
 
 plt = style.plt
 BEST_COUNT = 6
@@ -124,12 +124,20 @@ STRATEGY_DASH = {"native": "-", "native_unpruned": "-", "via_knn": (0, (5, 2)), 
 
 def ranged_strategies(results, model, query):
     """{adapter: {strategy: cells}} of the ranged series of one combination, for adapters run with more than
-    one strategy."""
-    by_adapter = {}
-    for (adapter, kind, strategy), cells in sweep_series(results, model, query, every_strategy=True).items():
-        if kind == "ranged":
-            by_adapter.setdefault(adapter, {})[strategy] = cells
-    return {a: s for a, s in by_adapter.items() if len(s) > 1}
+    one strategy: at the set size the other figures draw, else at the largest size swept with several strategies
+    (a grid run with each adapter's default strategy beside quick's run of every strategy at fewer points)."""
+    sizes = sorted({(c.n_points, c.n_queries) for c in results.sweep_every_size if (c.model, c.query) == (model, query)},
+                   key=lambda size: size_order(*size), reverse=True)
+    for cells in [None] + [[c for c in results.sweep_every_size if (c.model, c.query, c.n_points, c.n_queries) ==
+                            (model, query, *size)] for size in sizes]:
+        by_adapter = {}
+        for (adapter, kind, strategy), series in sweep_series(results, model, query, True, cells).items():
+            if kind == "ranged":
+                by_adapter.setdefault(adapter, {})[strategy] = series
+        shown = {a: s for a, s in by_adapter.items() if len(s) > 1}
+        if shown:
+            return shown
+    return {}
 
 
 def fig3_strategies(results, out_dir):
@@ -163,8 +171,10 @@ def fig3_strategies(results, out_dir):
     fig.legend(handles=handles, loc="upper center", ncol=len(handles), bbox_to_anchor=(0.5, 0.985 - 0.25 / rows))
     fig.supxlabel("maximal distance (m)")
     fig.supylabel("time for all queries (s)")
+    cell = next(c for strategies in shown.values() for cells in strategies.values() for c in cells)
+    sizes = f" ({cell.n_queries:,.0f} queries, {cell.n_points:,.0f} points)" if cell.n_queries and cell.n_points else ""
     fig.suptitle(f"Figure 3, every ranged strategy: {query.replace('_', ' ')} queries against a "
-                 f"{model.replace('_', ' ')} model, 1-NN (\"native\": the library's own ranged call)", y=0.995)
+                 f"{model.replace('_', ' ')} model{sizes}, 1-NN (\"native\": the library's own ranged call)", y=0.995)
     fig.tight_layout(rect=(0, 0, 1, 0.985 - 0.6 / rows))
     return style.save(fig, out_dir, "fig3_strategies")
 

@@ -86,6 +86,7 @@ class Results:
         self.micro_builds = []  # MicroBuild
         self.micro_walls = []  # MicroWall
         self.sweep_threads = []  # SweepCell at every thread count run (results.sweep: the fewest a cell ran on)
+        self.sweep_every_size = []  # SweepCell at every set size swept (results.sweep: one size a combination)
         self.build_skips = {}  # (model, adapter) -> reason the build did not run
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
         self.duplicates = {}  # record name -> [paths of every file holding it], when more than one
@@ -435,6 +436,8 @@ def load(paths, prefer=None):
                 _read_icp(results, rec, experiment_of(context), context)
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
     rank = {path: r for (path, _), r in zip(results.files, file_ranks(results))}
+    every_size = _one_k(_last_wins(results.sweep, lambda c: (*_sweep_key(c), c.n_points, c.n_queries, c.threads)))
+    results.sweep_every_size = _fewest_threads(every_size, lambda c: (*_sweep_key(c), c.n_points, c.n_queries), False)
     results.sweep = _one_set_size(results.sweep, sweep_files, rank)
     results.sweep_threads = _one_k(_last_wins(results.sweep, lambda c: (*_sweep_key(c), c.threads)))
     results.sweep = _fewest_threads(results.sweep_threads)
@@ -482,15 +485,14 @@ def _sweep_key(cell):
     return cell.model, cell.query, cell.adapter, cell.search, cell.strategy, cell.max_dist_m, cell.k
 
 
-def _fewest_threads(cells):
-    """Each cell at the fewest threads it ran on (the paper's comparison is single-threaded); says so when a cell
-    drawn ran on more."""
+def _fewest_threads(cells, key=_sweep_key, say=True):
+    """Each cell (key) at the fewest threads it ran on (the paper's comparison is single-threaded); says so when a
+    cell drawn ran on more."""
     fewest = {}
     for cell in cells:
-        key = _sweep_key(cell)
-        if key not in fewest or cell.threads < fewest[key].threads:
-            fewest[key] = cell
-    threaded = Counter(c.threads for c in fewest.values() if c.threads > 1)
+        if key(cell) not in fewest or cell.threads < fewest[key(cell)].threads:
+            fewest[key(cell)] = cell
+    threaded = Counter(c.threads for c in fewest.values() if c.threads > 1) if say else {}
     for threads, n in sorted(threaded.items()):
         warn(f"{n} sweep cells ran on {threads} threads only: their wall times are drawn as they are")
     return list(fewest.values())
@@ -530,11 +532,12 @@ def is_default_strategy(results, cell):
     return cell.strategy == results.adapter_info(cell.adapter).get(cell.search, cell.strategy)
 
 
-def sweep_series(results, model, query, every_strategy=False):
+def sweep_series(results, model, query, every_strategy=False, cells=None):
     """{(adapter, search): sorted cells} for one model/query combination, each adapter's default strategy;
-    with every_strategy, {(adapter, search, strategy): sorted cells} over every strategy run."""
+    with every_strategy, {(adapter, search, strategy): sorted cells} over every strategy run. From cells when
+    given, else from results.sweep."""
     series = {}
-    for cell in results.sweep:
+    for cell in results.sweep if cells is None else cells:
         if cell.model == model and cell.query == query:
             if every_strategy:
                 series.setdefault((cell.adapter, cell.search, cell.strategy), []).append(cell)

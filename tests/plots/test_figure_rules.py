@@ -81,6 +81,22 @@ class FigureRulesTest(unittest.TestCase):
         families = {style.family(a) for a in fixtures.ADAPTERS if a != fixtures.APPROX}
         self.assertEqual(len(colours), len(families))
 
+    def test_strategies_drawn_from_the_set_size_they_ran_at(self):
+        def sized(records, n):
+            return [{**r, "n_points": n, "n_queries": n} for r in records]
+        model, query = fig_sweep.FIG3
+        grid = fixtures.write(self.dir / "grid.json", "paper", sized(fixtures.sweep_records(), 60000))
+        quick = fixtures.write(self.dir / "quick.json", "quick",
+                               sized(fixtures.sweep_records(shapes=(model, query)) + fixtures.strategy_records(), 15000),
+                               date="2025-01-01T00:00:00")
+        results = results_io.load([grid, quick])
+        self.assertEqual({c.n_points for c in results.sweep if (c.model, c.query) == (model, query)}, {60000})
+        shown = fig_sweep.ranged_strategies(results, model, query)
+        self.assertEqual(sorted(shown), ["flann_kdtree"])
+        self.assertEqual(sorted(shown["flann_kdtree"]), ["via_knn", "via_radius"])
+        self.assertEqual({c.n_points for cells in shown["flann_kdtree"].values() for c in cells}, {15000})
+        self.assertEqual(fig_sweep.ranged_strategies(results_io.load([grid]), model, query), {})
+
     def test_a_long_adapter_legend_is_saved_whole(self):
         style.setup()
         fig = style.plt.figure(figsize=(10, 4))
