@@ -4,7 +4,6 @@ Drawn from micro_nns's threaded benchmarks (`--threads N`: 1 to N threads on the
 sweep cells run at more than one thread count (`run_sweep --threads N`, one results file per count)."""
 
 import style
-from fig_speedup import MICRO_TITLES
 from results_io import warn
 
 plt = style.plt
@@ -54,7 +53,7 @@ def _threaded_only(rates):
 
 
 def micro_title(pair, max_dist_m):
-    return f"{MICRO_TITLES.get(pair, pair + ', micro-benchmark')}, {max_dist_m:g} m"
+    return f"{'Figure 3 pair' if pair == 'fig3' else pair}, {max_dist_m:g} m"
 
 
 def draw_panel(ax, results, title, adapters):
@@ -67,11 +66,11 @@ def draw_panel(ax, results, title, adapters):
     best_one = max((t[1] for t in adapters.values() if 1 in t), default=None)
     if best_one:  # what perfect scaling of the fastest single thread would give
         ax.plot([1, top], [best_one / 1e6, best_one * top / 1e6], color="#999999", linestyle=":", linewidth=1)
-    ax.set_xticks(range(1, top + 1))
+    ax.xaxis.set_major_locator(style.matplotlib.ticker.MaxNLocator(integer=True))
     ax.set_ylim(bottom=0)
-    ax.set_title(title, fontsize=10)
+    ax.set_title(title, fontsize=9)
     ax.set_xlabel("threads")
-    ax.set_ylabel("million queries per second")
+    ax.set_ylabel("million queries / s")
 
 
 def panels(results):
@@ -86,6 +85,6 @@ def fig10(results, out_dir):
         warn("fig10: no ranged search timed on more than one thread count: figure skipped")
         return None
     fig = style.ranged_panels_figure(results, panels_drawn, draw_panel, COLUMNS, 3.0, "Figure 10: ranged 1-NN "
-                                     "throughput against threads (wall time of a whole batch; dotted: the fastest "
-                                     "single thread times the threads)", 0.97)
+                                     "throughput against threads (wall time of a batch; dotted: the fastest "
+                                     "single-thread rate times the threads)", 0.97)
     return style.save(fig, out_dir, "fig10_threads")
