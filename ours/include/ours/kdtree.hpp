@@ -58,11 +58,18 @@ struct DescentStep {
   bool right;          ///< whether the query went to the right child (coordinate > plane)
 };
 
+/// A cell of the tree: lo < p <= hi on each axis (T, tree coordinates).
+template <typename T>
+struct CellBox {
+  std::array<T, 3> lo, hi;
+};
+
 /// The k-d tree's per-caller buffers: the answer, plus its explicit stack and its last first descent.
 template <typename T>
 struct KdTreeBuffers : SearchBuffers<T> {
   std::vector<PendingCell<T>> pending;  ///< the explicit stack (one entry per level at most)
   std::vector<DescentStep<T>> path;     ///< the last first descent (one entry per level)
+  std::vector<CellBox<T>> cells;        ///< cells[l]: the cell of that descent's node at level l
 };
 
 template <typename T>
@@ -168,6 +175,7 @@ class KdTree {
     const std::size_t stride = max_depth_ + 2;
     if (buffers.pending.size() < kBatch * stride) buffers.pending.resize(kBatch * stride);
     if (buffers.path.size() < stride) buffers.path.resize(stride);
+    if (buffers.cells.size() < stride) buffers.cells.resize(stride);
     std::size_t reused = 0;
     LastDescent last;
     bool in_order = false;
@@ -662,8 +670,9 @@ class KdTree {
     build_node(out, split, end, right_lo, hi, depth + 1, 1);
   }
 
-  // The previous in-order query's first descent: its steps are in buffers.path[0, depth), its leaf's
-  // cell is lo < p <= hi (a right child holds the coordinates above its plane).
+  // The previous in-order query's first descent: its steps are in buffers.path[0, depth) and the cells
+  // of their nodes in buffers.cells[0, depth], the last its leaf's: lo < p <= hi (a right child holds the
+  // coordinates above its plane).
   struct LastDescent {
     bool valid = false;
     std::uint32_t depth = 0;
@@ -716,6 +725,13 @@ class KdTree {
       }
       index = level < last.depth ? path[level].node : last.leaf;
     }
+    // The shared steps' cells are kept: only the new steps' are worked out.
+    CellBox<T>* const cells = buffers.cells.data();
+    if (level == 0) {
+      cells[0].lo.fill(-std::numeric_limits<T>::infinity());
+      cells[0].hi.fill(std::numeric_limits<T>::infinity());
+    }
+    CellBox<T> cell = cells[level];
     Node node = nodes_[index];
     while (!node.is_leaf()) {
       DescentStep<T>& step = path[level++];
@@ -726,18 +742,17 @@ class KdTree {
       step.right = offset > 0;
       step.far = step.right ? index + 1 : node.right_or_size();
       push_far(step, offset, limit, top);
+      if (step.right) cell.lo[step.dim] = std::max(cell.lo[step.dim], step.plane);
+      else cell.hi[step.dim] = std::min(cell.hi[step.dim], step.plane);
+      cells[level] = cell;
       index = step.right ? node.right_or_size() : index + 1;
       node = nodes_[index];
     }
     last.valid = true;
     last.depth = level;
     last.leaf = index;
-    last.lo.fill(-std::numeric_limits<T>::infinity());
-    last.hi.fill(std::numeric_limits<T>::infinity());
-    for (std::uint32_t l = 0; l < level; ++l) {
-      if (path[l].right) last.lo[path[l].dim] = std::max(last.lo[path[l].dim], path[l].plane);
-      else last.hi[path[l].dim] = std::min(last.hi[path[l].dim], path[l].plane);
-    }
+    last.lo = cell.lo;
+    last.hi = cell.hi;
     search_from(q, collect, index, bottom, top);
     return false;
   }
