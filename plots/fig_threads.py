@@ -4,7 +4,7 @@ Drawn from micro_nns's threaded benchmarks (`--threads N`: 1 to N threads on the
 sweep cells run at more than one thread count (`run_sweep --threads N`, one results file per count)."""
 
 import style
-from results_io import warn
+from results_io import is_default_strategy, warn
 
 plt = style.plt
 COLUMNS = 4
@@ -28,7 +28,7 @@ def sweep_throughputs(results):
     rates = {}
     for c in results.sweep_threads:
         if c.search == "ranged" and c.seconds and c.n_queries and c.max_dist_m is not None and \
-                c.strategy == results.adapter_info(c.adapter).get("ranged", c.strategy):
+                is_default_strategy(results, c):
             rates[(f"{c.model} -> {c.query}", c.max_dist_m, c.adapter, c.threads)] = c.n_queries / c.seconds
     threaded = _threaded_only(rates)
     out = {}

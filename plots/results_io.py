@@ -210,7 +210,8 @@ def _read_micro_wall(results, rec):
     seconds = record_seconds(rec, ())
     threads = 1
     if len(parts) == 6 and parts[4].startswith("threads:") and parts[5] == "real_time":
-        threads = int(parts[4][len("threads:"):]) if parts[4][len("threads:"):].isdigit() else None
+        count = parts[4][len("threads:"):]
+        threads = int(count) if count.isdigit() else None
     elif len(parts) != 4:
         return
     try:
@@ -416,10 +417,13 @@ def load(paths, prefer=None):
         sizes = {key: _number(d.get("points")) for key, d in datasets.items()}
         micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) in ("micro", "micro_build")]
         for rec in micro:
-            if rec.get("run_type") != "aggregate":
-                (_read_micro if _kind(rec) == "micro" else _read_micro_build)(results, rec)
-                if _kind(rec) == "micro":
-                    _read_micro_wall(results, rec)
+            if rec.get("run_type") == "aggregate":
+                continue
+            if _kind(rec) == "micro":
+                _read_micro(results, rec)
+                _read_micro_wall(results, rec)
+            else:
+                _read_micro_build(results, rec)
         for rec in one_record_per_cell(r for r in benchmarks if isinstance(r, dict)
                                        and _kind(r) not in ("micro", "micro_build")):
             kind = _kind(rec)
