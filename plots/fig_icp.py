@@ -40,6 +40,12 @@ def bucket_curves(results):
     return {p: {k: {b: median(v) for b, v in c.items()} for k, c in s.items()} for p, s in curves.items()}
 
 
+def curve_threads(results, pair, adapter):
+    """The most threads an adapter's bucket curve ran on (1 for the paper's single-threaded comparison)."""
+    return max((r.threads for r in results.icp if is_bucket_run(r) and r.pair == pair and r.adapter == adapter),
+               default=1)
+
+
 def fig2(results, out_dir):
     curves = bucket_curves(results)
     if not curves:
@@ -50,7 +56,9 @@ def fig2(results, out_dir):
         for adapter, points in sorted(curves[pair].items()):
             xs = sorted(points)
             kw = style.line_kw(adapter, "ranged", results.adapter_info(adapter).get("ranged"), results)
-            ax.plot(xs, [points[x] for x in xs], label=icp_label(adapter, results), **kw)
+            threads = curve_threads(results, pair, adapter)
+            label = icp_label(adapter, results) + (f", {threads} threads" if threads > 1 else "")
+            ax.plot(xs, [points[x] for x in xs], label=label, **kw)
         ax.axvspan(5, 20, color="grey", alpha=0.12, label="bucket 5 to 20 (paper's optimum)")
         ax.set_xscale("log")
         style.log_y(ax)  # the libraries' curves lie orders of magnitude apart: linear flattens all but the slowest
@@ -65,7 +73,7 @@ def fig2(results, out_dir):
 
 
 def real_times(results):
-    """{pair: {adapter: (median icp seconds, all converged or None, (bucket size, its source) or None)}}."""
+    """{pair: {adapter: (median icp seconds, all converged or None, (bucket size, its source, threads) or None)}}."""
     runs = {}
     for run in results.icp:
         if not is_bucket_run(run) and not is_accuracy_run(run):
@@ -75,7 +83,7 @@ def real_times(results):
         out[pair] = {}
         for key, rs in by_key.items():
             flags = [r.converged for r in rs if r.converged is not None]
-            buckets = {(r.bucket_size, r.bucket_source) for r in rs}
+            buckets = {(r.bucket_size, r.bucket_source, r.threads) for r in rs}
             out[pair][key] = (median(r.icp_seconds for r in rs), all(flags) if flags else None,
                               buckets.pop() if len(buckets) == 1 else None)
     return out
@@ -106,14 +114,17 @@ def bar_text(seconds, converged, reference):
 
 
 def bucket_text(bucket):
-    """The bucket size a bar ran at: the reader sees whether each library ran at its best (see run_icp
-    --buckets-from) or its default."""
-    size, source = bucket or (None, None)
+    """The bucket size a bar ran at, and its threads when more than one: the reader sees whether each library ran at
+    its best (see run_icp --buckets-from) or its default, and which searches ran on several threads."""
+    size, source, threads = (*bucket, 1)[:3] if bucket else (None, None, 1)
     if source == "best":
-        return f" (best bucket {size:g})"
-    if source == "default":
-        return " (default)" if size is None else f" (default bucket {size:g})"
-    return f" (bucket {size:g})" if size is not None else ""
+        parts = [f"best bucket {size:g}"]
+    elif source == "default":
+        parts = ["default" if size is None else f"default bucket {size:g}"]
+    else:
+        parts = [f"bucket {size:g}"] if size is not None else []
+    parts += [f"{threads} threads"] if threads > 1 else []
+    return f" ({', '.join(parts)})" if parts else ""
 
 
 def draw_pair(ax, results, pair, times):

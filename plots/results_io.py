@@ -28,10 +28,10 @@ MicroBuild = namedtuple("MicroBuild", "model adapter variant cpu_seconds")
 MicroWall = namedtuple("MicroWall", "pair adapter variant max_dist_m threads wall_seconds n_queries")
 # ref_*: the final pose's error against the pair's reference (None without one); settings: ICP_SETTINGS and
 # initial_pose as the record gives them; bucket_source: "best" (from run_icp --buckets-from's file), "default"
-# (the adapter is not in that file) or None (no file named).
+# (the adapter is not in that file) or None (no file named); threads: what the searches ran on.
 IcpRun = namedtuple("IcpRun", "experiment pair adapter bucket_size icp_seconds build_seconds nns_seconds "
                               "iterations converged ref_translation_error_m ref_rotation_error_deg settings "
-                              "bucket_source", defaults=(None, None, None, None))
+                              "bucket_source threads", defaults=(None, None, None, None, 1))
 ICP_SETTINGS = ("max_dist_start_m", "max_dist_factor", "max_dist_floor_m", "max_iterations", "query_stride",
                 "initial_pose")
 
@@ -171,7 +171,8 @@ def _read_icp(results, rec, experiment, context):
                               _number(rec.get("nns_seconds")), _number(rec.get("iterations")),
                               converged if isinstance(converged, bool) else None,
                               _number(rec.get("ref_translation_error_m")), _number(rec.get("ref_rotation_error_deg")),
-                              {k: rec[k] for k in ICP_SETTINGS if k in rec}, bucket_source(context, adapter)))
+                              {k: rec[k] for k in ICP_SETTINGS if k in rec}, bucket_source(context, adapter),
+                              record_threads(rec)))
     results._note_adapter(rec)
 
 
@@ -315,6 +316,19 @@ def run_threads(context):
     return record_threads(config)
 
 
+def icp_run_threads(context, pair):
+    """The threads run_icp was given on a pair (its config's settings for the pair; 1 when it does not say)."""
+    config = context.get("config") if isinstance(context.get("config"), dict) else {}
+    for entry in config.get("pairs") or []:
+        if isinstance(entry, dict) and entry.get("pair") == pair and isinstance(entry.get("icp"), dict):
+            return record_threads(entry["icp"])
+    return run_threads(context)
+
+
+def threads_text(threads):
+    return f"run on {threads} threads" if threads > 1 else ""
+
+
 def sized_run_name(rec, sizes, threads=1):
     """The cell with the set sizes and the threads its run was given: the same name at other sizes (quick's 15,000
     points beside the grid's 60,000) or in a run on other threads is another measurement, not a duplicate;
@@ -322,7 +336,7 @@ def sized_run_name(rec, sizes, threads=1):
     n_points = _number(rec.get("n_points")) or sizes.get((rec.get("model"), "model"))
     n_queries = _number(rec.get("n_queries")) or sizes.get((rec.get("query"), "query"))
     parts = [f"{n:g} {what}" for n, what in ((n_points, "points"), (n_queries, "queries")) if n]
-    parts += [f"run on {threads} threads"] if threads > 1 else []
+    parts += [threads_text(threads)] if threads > 1 else []
     return run_name(rec) + (f" ({', '.join(parts)})" if parts else "")
 
 
@@ -430,7 +444,9 @@ def load(paths, prefer=None):
             if kind in ("sweep", "build"):
                 seen.setdefault(sized_run_name(rec, sizes, run_threads(context)), []).append(path)
             elif kind == "icp":  # each ICP experiment is drawn on its own: the same cell in two is no conflict
-                seen.setdefault(f"{experiment_of(context)}: {run_name(rec)}", []).append(path)
+                threads = icp_run_threads(context, rec.get("pair"))
+                on_threads = f" ({threads_text(threads)})" if threads > 1 else ""
+                seen.setdefault(f"{experiment_of(context)}: {run_name(rec)}{on_threads}", []).append(path)
             if kind == "sweep":
                 _read_sweep(results, rec, sizes)
                 sweep_files.append(path)
@@ -441,11 +457,11 @@ def load(paths, prefer=None):
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}
     rank = {path: r for (path, _), r in zip(results.files, file_ranks(results))}
     every_size = _one_k(_last_wins(results.sweep, lambda c: (*_sweep_key(c), c.n_points, c.n_queries, c.threads)))
-    results.sweep_every_size = _fewest_threads(every_size, lambda c: (*_sweep_key(c), c.n_points, c.n_queries), False)
+    results.sweep_every_size = _fewest_threads(every_size, lambda c: (*_sweep_key(c), c.n_points, c.n_queries), None)
     results.sweep = _one_set_size(results.sweep, sweep_files, rank)
     results.sweep_threads = _one_k(_last_wins(results.sweep, lambda c: (*_sweep_key(c), c.threads)))
     results.sweep = _fewest_threads(results.sweep_threads)
-    results.icp = _last_wins(results.icp, lambda r: (r.experiment, r.pair, r.adapter, r.bucket_size))
+    results.icp = _fewest_threads(_last_wins(results.icp, lambda r: (*_icp_key(r), r.threads)), _icp_key, "ICP runs")
     return results
 
 
@@ -489,16 +505,20 @@ def _sweep_key(cell):
     return cell.model, cell.query, cell.adapter, cell.search, cell.strategy, cell.max_dist_m, cell.k
 
 
-def _fewest_threads(cells, key=_sweep_key, say=True):
-    """Each cell (key) at the fewest threads it ran on (the paper's comparison is single-threaded); says so when a
-    cell drawn ran on more."""
+def _icp_key(run):
+    return run.experiment, run.pair, run.adapter, run.bucket_size
+
+
+def _fewest_threads(cells, key=_sweep_key, what="sweep cells"):
+    """Each cell (key) at the fewest threads it ran on (the paper's comparison is single-threaded); says so, naming
+    what the cells are, when one drawn ran on more (what=None: silently)."""
     fewest = {}
     for cell in cells:
         if key(cell) not in fewest or cell.threads < fewest[key(cell)].threads:
             fewest[key(cell)] = cell
-    threaded = Counter(c.threads for c in fewest.values() if c.threads > 1) if say else {}
+    threaded = Counter(c.threads for c in fewest.values() if c.threads > 1) if what else {}
     for threads, n in sorted(threaded.items()):
-        warn(f"{n} sweep cells ran on {threads} threads only: their wall times are drawn as they are")
+        warn(f"{n} {what} ran on {threads} threads only: their wall times are drawn as they are")
     return list(fewest.values())
 
 

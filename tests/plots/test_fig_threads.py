@@ -7,6 +7,7 @@ from unittest import mock
 from pathlib import Path
 
 import fixtures  # first: puts plots/ on the path
+import fig_icp  # noqa: E402
 import fig_threads  # noqa: E402
 import report  # noqa: E402
 import results_io  # noqa: E402
@@ -48,6 +49,20 @@ def sweep_file(directory, threads, factor):
     path = fixtures.write(directory / f"sweep_threads{threads}.json", "quick", records)
     doc = json.loads(path.read_text())
     doc["context"]["config"] = {"threads": threads}
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def icp_file(directory, threads, factor):
+    """The fixture's ICP runs on the real pairs, run_icp given `threads` threads on each pair, each time multiplied
+    by factor; ours_kdtree's searches run on them, the others' on one (as adapters that cannot share an index)."""
+    records = fixtures.icp_real_records()
+    for rec in records:
+        rec.update(icp_seconds=rec["icp_seconds"] * factor, threads=threads if rec["adapter"] == "ours_kdtree" else 1)
+    path = fixtures.write(directory / f"icp_threads{threads}.json", "icp_real", records)
+    doc = json.loads(path.read_text())
+    pairs = sorted({rec["pair"] for rec in records})
+    doc["context"]["config"] = {"pairs": [{"pair": p, "icp": {"threads": threads}} for p in pairs]}
     path.write_text(json.dumps(doc))
     return path
 
@@ -96,6 +111,22 @@ class FigThreadsTest(unittest.TestCase):
         self.assertEqual({c.threads for c in results.sweep}, {2})
         self.assertTrue(any("on 2 threads only" in str(call) for call in warned.call_args_list))
         self.assertEqual(fig_threads.sweep_throughputs(results), {})
+
+    def test_icp_runs_at_two_thread_counts_are_no_duplicates_and_draw_one_thread(self):
+        results = results_io.load([icp_file(self.dir, 1, 1.0), icp_file(self.dir, 2, 0.5)])  # threads read last
+        self.assertEqual(results.duplicates, {})
+        times = fig_icp.real_times(results)["sick_office"]
+        self.assertAlmostEqual(times["ours_kdtree"][0], fixtures.SPEED["ours_kdtree"])  # its one-thread run
+        self.assertEqual(fig_icp.bucket_text(times["ours_kdtree"][2]), "")
+
+    def test_icp_on_threads_alone_is_drawn_and_said(self):
+        results_io._WARNED.clear()
+        with mock.patch.object(results_io, "warn", wraps=results_io.warn) as warned:
+            results = results_io.load([icp_file(self.dir, 2, 0.5)])
+        self.assertTrue(any("ICP runs ran on 2 threads only" in str(call) for call in warned.call_args_list))
+        times = fig_icp.real_times(results)["sick_office"]
+        self.assertEqual(fig_icp.bucket_text(times["ours_kdtree"][2]), " (2 threads)")
+        self.assertEqual(fig_icp.bucket_text(times["nanoflann_kdtree"][2]), "")
 
     def test_figure_written_or_skipped(self):
         style.setup()
