@@ -82,21 +82,9 @@ Input load_input(const std::string& model_spec, const std::string& query_spec, c
 // The adapter's bucket/leaf-size parameter, if it declares one (Figure 2's x axis).
 std::string bucket_param_of(const nnb::AdapterInfo& info) { return info.bucket ? info.bucket->name : ""; }
 
-icp::Options options_of(const icp::Settings& s, const Eigen::Matrix4d& initial) {
-  icp::Options o;
-  o.initial_pose = initial;
-  o.max_dist = s.max_dist;
-  o.max_iterations = s.max_iterations;
-  o.min_translation_step_m = s.min_translation_step_m;
-  o.min_rotation_step_rad = s.min_rotation_step_rad;
-  o.use_hints = s.hints;
-  o.track_neighbours = s.track;
-  return o;
-}
-
 icp::Record run_one(const Input& in, const std::string& adapter, const nnb::Params& params, const icp::Settings& s,
                     const Eigen::Matrix4d& initial, int repetition) {
-  const icp::Options options = options_of(s, initial);
+  const icp::Options options = icp::options_of(s, initial);
   auto index = nnb::make_adapter(adapter, params);
   index->set_threads(s.threads);
   icp::Record rec;

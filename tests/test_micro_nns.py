@@ -9,8 +9,11 @@ import subprocess
 import sys
 import tempfile
 
+import real_data
+
 FILTER = ("^(IcpStep/fig3|Build/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)"
-          "|Ranged1NN/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)/0.10(/threads:2/real_time)?)$")
+          "|Ranged1NN/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)/0.10(/threads:2/real_time)?"
+          "|Icp/office-sick-3dtk/(ours_kdtree|nanoflann_kdtree))$")
 VERDICT = r"(PASS|MISS)"
 
 
@@ -40,11 +43,21 @@ def main(micro_nns):
         failures.append("the ICP step on fig3 is not judged")
     if not re.search(rf"^fig3 +\|.*\| [0-9.]+x >= 2 {VERDICT} +\| [0-9.]+x >= 2 {VERDICT}$", out, re.M):
         failures.append("the fig3 builds of the k-d tree and the octree are not judged each")
+    # The ICP target on a real pair: judged when the scans are there, "not run" (the benchmark skipped) without.
+    icp_judged = re.search(rf"^office-sick-3dtk +\| +[0-9.]+ +- +\| +[0-9.]+ +- +\| [0-9.]+x >= 2.5 {VERDICT}$", out, re.M)
+    if real_data.present() or real_data.required():
+        if not icp_judged:
+            failures.append("ICP on the SICK pair is not judged against the 2.5x target")
+    elif not re.search(r"^office-sick-3dtk +\| +- +- +\| +- +- +\| not run$", out, re.M):
+        failures.append("ICP on the SICK pair without its scans is not marked 'not run'")
+    if not re.search(r"^office-kinect-pcl +\| +- +- +\| +- +- +\| not run$", out, re.M):
+        failures.append("ICP on a pair that did not run is not marked 'not run'")
     summary = re.search(r"^Targets: (\d+) PASS, (\d+) MISS, (\d+) not run$", out, re.M)
+    expected = 7 if icp_judged else 6
     if not summary:
         failures.append("no summary line")
-    elif int(summary[1]) + int(summary[2]) != 6:
-        failures.append(f"expected 6 targets judged, got {summary[0]}")
+    elif int(summary[1]) + int(summary[2]) != expected:
+        failures.append(f"expected {expected} targets judged, got {summary[0]}")
     bad = subprocess.run([micro_nns, "--threads", "0"], capture_output=True, text=True, timeout=60)
     if bad.returncode != 2 or len(bad.stderr.strip().splitlines()) != 1:
         failures.append(f"--threads 0: exit {bad.returncode}, stderr {bad.stderr!r}")

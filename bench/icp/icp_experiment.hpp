@@ -48,5 +48,8 @@ Experiment load_experiment(const std::string& path);
 std::map<std::string, int> best_buckets(const std::string& path);
 /// The settings for that pair.
 const Settings& settings_for(const Experiment& experiment, const std::string& pair);
+/// ICP's options from an experiment's settings, starting at that pose (threads and query stride are the
+/// caller's: they concern the index and the query cloud).
+Options options_of(const Settings& settings, const Eigen::Matrix4d& initial);
 
 }  // namespace nnb::icp

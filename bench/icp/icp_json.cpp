@@ -369,4 +369,16 @@ const Settings& settings_for(const Experiment& experiment, const std::string& pa
   return it == experiment.icp_by_pair.end() ? experiment.icp : it->second;
 }
 
+Options options_of(const Settings& s, const Eigen::Matrix4d& initial) {
+  Options o;
+  o.initial_pose = initial;
+  o.max_dist = s.max_dist;
+  o.max_iterations = s.max_iterations;
+  o.min_translation_step_m = s.min_translation_step_m;
+  o.min_rotation_step_rad = s.min_rotation_step_rad;
+  o.use_hints = s.hints;
+  o.track_neighbours = s.track;
+  return o;
+}
+
 }  // namespace nnb::icp
