@@ -116,7 +116,7 @@ def bar_text(seconds, converged, reference):
 def bucket_text(bucket):
     """The bucket size a bar ran at, and its threads when more than one: the reader sees whether each library ran at
     its best (see run_icp --buckets-from) or its default, and which searches ran on several threads."""
-    size, source, threads = (*bucket, 1)[:3] if bucket else (None, None, 1)
+    size, source, threads = bucket or (None, None, 1)
     if source == "best":
         parts = [f"best bucket {size:g}"]
     elif source == "default":

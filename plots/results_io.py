@@ -326,7 +326,7 @@ def icp_run_threads(context, pair):
 
 
 def threads_text(threads):
-    return f"run on {threads} threads" if threads > 1 else ""
+    return f"run on {threads} threads"
 
 
 def sized_run_name(rec, sizes, threads=1):
