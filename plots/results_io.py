@@ -23,6 +23,8 @@ Build = namedtuple("Build", "model adapter build_seconds index_bytes n_points fi
 MicroCell = namedtuple("MicroCell", "pair adapter variant max_dist_m cpu_seconds n_queries")
 # micro_nns's single-threaded builds (Build/<model>/<adapter>): one record a repetition.
 MicroBuild = namedtuple("MicroBuild", "model adapter variant cpu_seconds")
+# micro_nns's whole ICP runs (Icp/<pair>/<adapter>, construction excluded): one record a repetition.
+MicroIcp = namedtuple("MicroIcp", "pair adapter variant cpu_seconds")
 # Ranged 1-NN's wall time on 1 thread (Ranged1NN/<pair>/<adapter>/<m>) and on n (.../threads:<n>/real_time), one
 # record a repetition: what the threads figure draws.
 MicroWall = namedtuple("MicroWall", "pair adapter variant max_dist_m threads wall_seconds n_queries")
@@ -84,6 +86,7 @@ class Results:
         self.icp = []        # IcpRun
         self.micro = []      # MicroCell
         self.micro_builds = []  # MicroBuild
+        self.micro_icp = []  # MicroIcp
         self.micro_walls = []  # MicroWall
         self.sweep_threads = []  # SweepCell at every thread count run (results.sweep: the fewest a cell ran on)
         self.sweep_every_size = []  # SweepCell at every set size swept (results.sweep: one size a combination)
@@ -226,21 +229,34 @@ def _read_micro_wall(results, rec):
                                          _number(rec.get("items_per_call"))))
 
 
-def _read_micro_build(results, rec):
-    """Build/<model>/<adapter[variant]> (a threaded build's name has more parts and is not read)."""
+def _read_micro_per_model(results, rec):
+    """Build/<model>/<adapter[variant]> and Icp/<pair>/<adapter[variant]> (a threaded build's name has more parts
+    and is not read)."""
     got = _micro_record(rec, 3)
     if got is not None:
         parts, adapter, variant, seconds = got
-        results.micro_builds.append(MicroBuild(parts[1], adapter, variant, seconds))
+        if _kind(rec) == "micro_build":
+            results.micro_builds.append(MicroBuild(parts[1], adapter, variant, seconds))
+        else:
+            results.micro_icp.append(MicroIcp(parts[1], adapter, variant, seconds))
+
+
+def _fastest_per_model(records):
+    best = {}
+    for r in records:
+        if r.variant is None:
+            best[(r[0], r.adapter)] = min(best.get((r[0], r.adapter), math.inf), r.cpu_seconds)
+    return best
 
 
 def micro_build_cells(results):
     """{(model, adapter): fastest CPU seconds of a single-threaded build}, default variants only."""
-    best = {}
-    for b in results.micro_builds:
-        if b.variant is None:
-            best[(b.model, b.adapter)] = min(best.get((b.model, b.adapter), math.inf), b.cpu_seconds)
-    return best
+    return _fastest_per_model(results.micro_builds)
+
+
+def micro_icp_cells(results):
+    """{(pair, adapter): fastest CPU seconds of a whole ICP run}, default variants only."""
+    return _fastest_per_model(results.micro_icp)
 
 
 def micro_cells(results, variants=False):
@@ -281,12 +297,18 @@ def latest_builds(results):
     return {k: b for k, (_, b) in out.items()}
 
 
+# Google Benchmark's records from micro_nns, read by name rather than as sweep, build or ICP records.
+MICRO_KINDS = ("micro", "micro_build", "micro_icp")
+
+
 def _kind(rec):
     name = str(rec.get("name", ""))
     if name.startswith("Ranged1NN/"):
         return "micro"
     if name.startswith("Build/"):
         return "micro_build"
+    if name.startswith("Icp/"):
+        return "micro_icp"
     for prefix in ("sweep", "build", "icp"):
         if name.startswith(prefix + "/"):
             return prefix
@@ -429,7 +451,7 @@ def load(paths, prefer=None):
         for key, entry in datasets.items():
             results.datasets[key] = merged_dataset(results.datasets.get(key), entry)
         sizes = {key: _number(d.get("points")) for key, d in datasets.items()}
-        micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) in ("micro", "micro_build")]
+        micro = [r for r in benchmarks if isinstance(r, dict) and _kind(r) in MICRO_KINDS]
         for rec in micro:
             if rec.get("run_type") == "aggregate":
                 continue
@@ -437,9 +459,9 @@ def load(paths, prefer=None):
                 _read_micro(results, rec)
                 _read_micro_wall(results, rec)
             else:
-                _read_micro_build(results, rec)
+                _read_micro_per_model(results, rec)
         for rec in one_record_per_cell(r for r in benchmarks if isinstance(r, dict)
-                                       and _kind(r) not in ("micro", "micro_build")):
+                                       and _kind(r) not in MICRO_KINDS):
             kind = _kind(rec)
             if kind in ("sweep", "build"):
                 seen.setdefault(sized_run_name(rec, sizes, run_threads(context)), []).append(path)

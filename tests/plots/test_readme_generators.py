@@ -65,6 +65,25 @@ class ReadmeTablesTest(unittest.TestCase):
         lines = readme_tables.micro_build_lines(results)
         self.assertEqual(lines[2], "| office-sick-3dtk | 4 ms | 2 ms | 7 ms | 1.75x* | 3.50x |")
 
+    def test_micro_icp_judges_the_faster_of_ours_against_the_faster_nanoflann(self):
+        def run(pair, adapter, ms, run_type="iteration"):
+            return {"name": f"Icp/{pair}/{adapter}", "run_name": f"Icp/{pair}/{adapter}", "run_type": run_type,
+                    "cpu_time": ms, "real_time": ms, "time_unit": "ms", "icp_iterations": 50}
+        records = [run("sick", "ours_kdtree", 400.0), run("sick", "ours_kdtree", 380.0), run("sick", "ours_octree", 450.0),
+                   run("sick", "nanoflann_kdtree", 1000.0), run("sick", "nanoflann_latest", 950.0),
+                   run("sick", "ours_kdtree", 1.0, run_type="aggregate"),  # a mean: never the fastest repetition
+                   run("kinect", "ours_kdtree", 100.0), run("kinect", "nanoflann_latest", 300.0),
+                   run("bunny", "ours_kdtree", 10.0)]
+        results = results_io.load([self.write("micro_nns.json", {"date": "2024-01-01T00:00:00"}, records)])
+        self.assertEqual(results.sweep, [], "ICP runs are not sweep cells")
+        self.assertEqual(readme_tables.micro_icp_lines(results)[2:], [
+            "| bunny | 10 ms | - | - | - |",
+            "| kinect | 100 ms | - | 300 ms | 3.00x |",
+            "| sick | 380 ms | 450 ms | 950 ms | 2.50x |"])
+        records[4] = run("sick", "nanoflann_latest", 949.0)
+        results = results_io.load([self.write("micro_nns.json", {"date": "2024-01-01T00:00:00"}, records)])
+        self.assertEqual(readme_tables.micro_icp_lines(results)[4], "| sick | 380 ms | 450 ms | 949 ms | 2.50x* |")
+
     def test_real_sweep_ranks_exact_timed_ranged_cells_at_the_distance(self):
         records = [dict(r, n_queries=5000) for r in fixtures.sweep_records(shapes=("kinect",))]
         for r in records:
