@@ -22,7 +22,9 @@ from table1 import HEADER, adapter_lines, table1_lines  # noqa: E402
 
 README = results_io.REPO_ROOT / "README.md"
 BLOCK = re.compile(r"(<!-- generated: (?P<name>[a-z0-9_]+) -->\n)(?P<body>.*?)(<!-- end -->)", re.S)
-MICRO_SUBJECTS = ("ours_kdtree", "ours_octree", "nanoflann_kdtree", "nanoflann_latest")
+MICRO_OURS = ("ours_kdtree", "ours_octree")
+MICRO_ANCHORS = ("nanoflann_kdtree", "nanoflann_latest")
+MICRO_SUBJECTS = MICRO_OURS + MICRO_ANCHORS
 MICRO_PAIRS = {"fig3": "Figure 3 (hollow cube -> hollow sphere)", "sick": "office-sick-3dtk"}
 MICRO_FAST_PAIRS = ("fig3", "sick", "office-sick-3dtk")
 ICP_TARGET = 2.5  # micro_nns's kIcpTarget: whole ICP runs, ours against the faster nanoflann
@@ -71,6 +73,11 @@ def real_sweep_lines(results, shown=3, max_dist_m=0.1):
     return lines
 
 
+def _fastest(got, adapters):
+    """The least of got's times among adapters (None where none ran): the faster of ours or of the anchors."""
+    return min(filter(None, (got.get(a) for a in adapters)), default=None)
+
+
 def micro_lines(results):
     """Per pair and query order: ours (the faster of our two trees) against the faster nanoflann at each
     distance (target >= 2x), and ours' ns per query at <= 0.1 m (target under 100 ns on Figure 3 and SICK),
@@ -87,8 +94,8 @@ def micro_lines(results):
         ratios, fast = [], []
         for d in dists:
             got = {a: cells.get((pair, a, d)) for a in MICRO_SUBJECTS}
-            ours = min(filter(None, (got["ours_kdtree"], got["ours_octree"])), default=None)
-            anchor = min(filter(None, (got["nanoflann_kdtree"], got["nanoflann_latest"])), default=None)
+            ours = _fastest(got, MICRO_OURS)
+            anchor = _fastest(got, MICRO_ANCHORS)
             ratios.append(f"{anchor / ours:.2f}" + ("" if anchor / ours >= 2 else "*") if ours and anchor else "-")
             if d <= 0.1:
                 ns = ours * 1e9 / n if ours and n else None
@@ -111,7 +118,7 @@ def micro_build_lines(results):
              "|---|---|---|---|---|---|"]
     for model in sorted({m for m, a in cells if a in MICRO_SUBJECTS}, key=lambda m: (m != "fig3", m)):
         got = {a: cells.get((model, a)) for a in MICRO_SUBJECTS}
-        anchor = min(filter(None, (got["nanoflann_kdtree"], got["nanoflann_latest"])), default=None)
+        anchor = _fastest(got, MICRO_ANCHORS)
 
         def ms(adapter):
             return _ms_text(got[adapter]) if got[adapter] else "-"
@@ -133,8 +140,8 @@ def micro_icp_lines(results):
              "|---|---|---|---|---|"]
     for pair in sorted({p for p, a in cells if a in MICRO_SUBJECTS}):
         got = {a: cells.get((pair, a)) for a in MICRO_SUBJECTS}
-        ours = min(filter(None, (got["ours_kdtree"], got["ours_octree"])), default=None)
-        anchor = min(filter(None, (got["nanoflann_kdtree"], got["nanoflann_latest"])), default=None)
+        ours = _fastest(got, MICRO_OURS)
+        anchor = _fastest(got, MICRO_ANCHORS)
         judged = f"{anchor / ours:.2f}x" + ("" if anchor / ours >= ICP_TARGET else "*") if ours and anchor else "-"
         ms = [_ms_text(got[a]) if got[a] else "-" for a in ("ours_kdtree", "ours_octree")]
         lines.append(f"| {pair} | {ms[0]} | {ms[1]} | {_ms_text(anchor) if anchor else '-'} | {judged} |")

@@ -229,16 +229,13 @@ def _read_micro_wall(results, rec):
                                          _number(rec.get("items_per_call"))))
 
 
-def _read_micro_per_model(results, rec):
-    """Build/<model>/<adapter[variant]> and Icp/<pair>/<adapter[variant]> (a threaded build's name has more parts
-    and is not read)."""
+def _read_micro_per_model(into, make, rec):
+    """Build/<model>/<adapter[variant]> or Icp/<pair>/<adapter[variant]> as make(...) onto into (a threaded
+    build's name has more parts and is not read)."""
     got = _micro_record(rec, 3)
     if got is not None:
         parts, adapter, variant, seconds = got
-        if _kind(rec) == "micro_build":
-            results.micro_builds.append(MicroBuild(parts[1], adapter, variant, seconds))
-        else:
-            results.micro_icp.append(MicroIcp(parts[1], adapter, variant, seconds))
+        into.append(make(parts[1], adapter, variant, seconds))
 
 
 def _fastest_per_model(records):
@@ -455,11 +452,14 @@ def load(paths, prefer=None):
         for rec in micro:
             if rec.get("run_type") == "aggregate":
                 continue
-            if _kind(rec) == "micro":
+            kind = _kind(rec)
+            if kind == "micro":
                 _read_micro(results, rec)
                 _read_micro_wall(results, rec)
+            elif kind == "micro_build":
+                _read_micro_per_model(results.micro_builds, MicroBuild, rec)
             else:
-                _read_micro_per_model(results, rec)
+                _read_micro_per_model(results.micro_icp, MicroIcp, rec)
         for rec in one_record_per_cell(r for r in benchmarks if isinstance(r, dict)
                                        and _kind(r) not in MICRO_KINDS):
             kind = _kind(rec)
