@@ -10,13 +10,20 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <random>
 #include <string>
 #include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
 
 namespace {
 
@@ -781,6 +788,35 @@ TEST(OursAdapters, GraphHintsGiveThePlainRows) {
     }
   }
 }
+
+// ---------- memory ----------
+
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+// How many of the whole pages inside [data, data + bytes) the kernel has not mapped yet (-1: unknown).
+long unmapped_pages(const void* data, std::size_t bytes, std::size_t page) {
+  const auto first = reinterpret_cast<std::uintptr_t>(data);
+  const std::uintptr_t begin = (first + page - 1) / page * page;
+  const std::uintptr_t end = (first + bytes) / page * page;
+  std::vector<unsigned char> mapped((end - begin) / page);
+  if (mincore(reinterpret_cast<void*>(begin), end - begin, mapped.data()) != 0) return -1;
+  return static_cast<long>(std::count_if(mapped.begin(), mapped.end(), [](unsigned char m) { return !(m & 1); }));
+}
+
+TEST(OursMemory, LargeBlocksAreMappedInBeforeTheFirstWrite) {
+  const auto page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  void* probe = mmap(nullptr, page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  ASSERT_NE(probe, MAP_FAILED);
+  const bool kernel_can = madvise(probe, page, MADV_POPULATE_WRITE) == 0;
+  munmap(probe, page);
+  if (!kernel_can) GTEST_SKIP() << "this kernel refuses MADV_POPULATE_WRITE: blocks fault in on first write, as before";
+
+  constexpr std::size_t kBytes = std::size_t{40} << 20;  // above any malloc's reuse threshold: fresh pages
+  ours::DefaultInit<unsigned char> allocator;
+  unsigned char* block = allocator.allocate(kBytes);
+  EXPECT_EQ(unmapped_pages(block, kBytes, page), 0);
+  allocator.deallocate(block, kBytes);
+}
+#endif
 
 // ---------- adapters ----------
 
