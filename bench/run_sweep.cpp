@@ -15,6 +15,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -30,6 +31,7 @@ struct Flags {
   std::string experiment = "quick";
   std::string adapters, datasets, dists, out, data_dir, strategies;
   std::optional<int> repetitions;
+  std::optional<int> rounds;
   std::optional<double> budget_s;
   std::optional<double> min_time_s;
   std::optional<int> threads;
@@ -52,6 +54,7 @@ Experiment configure(const Flags& flags, const std::vector<std::string>& all_ada
   if (!flags.dists.empty()) e.dists = parse_dists(flags.dists);
   if (!flags.strategies.empty()) e.every_strategy = parse_strategies(flags.strategies);
   if (flags.repetitions) e.repetitions = *flags.repetitions;
+  if (flags.rounds) e.rounds = *flags.rounds;
   if (flags.budget_s) e.budget_s = *flags.budget_s;
   if (flags.min_time_s) e.min_time_s = *flags.min_time_s;
   if (flags.threads) e.threads = *flags.threads;
@@ -88,6 +91,9 @@ void add_flags(CLI::App& app, Flags& flags) {
   app.add_option("--strategies", flags.strategies,
                  "ranged search with each adapter's default strategy ('default') or every one it offers ('all')");
   app.add_option("--repetitions", flags.repetitions, "timed calls per cell at most (each is a record)");
+  app.add_option("--rounds", flags.rounds,
+                 "passes over the whole plan, each timing every cell that ran again (--repetitions calls a pass), "
+                 "so that a cell's calls lie apart in time (default 1)");
   app.add_option("--min-time", flags.min_time_s,
                  "repeat a cell until its calls took this many seconds in total, up to --repetitions (0: always all)");
   app.add_option("--threads", flags.threads,
@@ -150,17 +156,24 @@ int sweep(const Flags& flags, const BuildInfo& build) {
   }
 
   const auto planned = plan.cell_names(in_shard);
-  std::size_t already = 0;
-  for (const auto& name : planned) already += results.has(name);
+  std::size_t already = 0, rounds_done = 0;  // a skipped cell counts once here, once more at each later round
+  for (const auto& name : planned) {
+    const Record* r = results.find(name);
+    already += r != nullptr;
+    if (r) rounds_done += r->skipped.empty() ? static_cast<std::size_t>(std::min(r->rounds, experiment.rounds)) : 1;
+  }
   std::cerr << "run_sweep: experiment '" << experiment.name << "'"
             << (shard.given ? ", shard " + flags.shard : std::string()) << ": " << planned.size() << " cells ("
             << already << " already in " << out << "), " << adapters.size() << " adapters, "
             << experiment.pairs.size() << " model/query pairs, " << experiment.dists.values().size()
-            << " distances, " << experiment.repetitions << " repetitions, budget " << experiment.budget_s << " s"
+            << " distances, " << experiment.repetitions << " repetitions"
+            << (experiment.rounds > 1 ? " in each of " + std::to_string(experiment.rounds) + " rounds" : std::string())
+            << ", budget " << experiment.budget_s << " s"
             << (experiment.skip_larger_models ? " (also for larger models)" : "") << ", memory limit "
             << experiment.memory_limit_gib << " GiB\n";
 
-  Progress progress(planned.size(), already, isatty(STDERR_FILENO) != 0);
+  const std::size_t rounds = static_cast<std::size_t>(experiment.rounds);
+  Progress progress(planned.size() * rounds, rounds_done, isatty(STDERR_FILENO) != 0);
   const std::size_t disagreements =
       run_experiment(experiment, data, plan, results.records(), results, progress, in_shard);
   progress.finish();

@@ -1,9 +1,8 @@
 #!/usr/bin/env python3
 """Tests of run_sweep, run on tiny synthetic data: test_run_sweep.py RUN_SWEEP CASE WORKDIR.
 
-Cases: fields, resume, budget, bad_input, hostile_values, files, isolation, quick_tiny, agreement, scale_memory,
-scale_budget, shards. Each exits non-zero
-with a message on failure.
+Cases: fields, resume, rounds, budget, bad_input, hostile_values, files, isolation, quick_tiny, agreement,
+scale_memory, scale_budget, shards. Each exits non-zero with a message on failure.
 """
 import json
 import math
@@ -404,7 +403,7 @@ def case_bad_input():
     cases = [["--adapters", "no_such_adapter"], ["--datasets", "no_such_data_set"], ["--dists", "0:1:0"],
              ["--dists", "0:1:-0.02"], ["--dists", "-0.1:1:0.02"], ["--dists", "0:1"], ["--dists", "a:b:c"],
              ["--experiment", str(work / "missing.json")], ["--experiment", str(bad_json)],
-             ["--repetitions", "0"], ["--budget", "0"], ["--no-such-flag"]]
+             ["--repetitions", "0"], ["--rounds", "0"], ["--rounds", "1001"], ["--budget", "0"], ["--no-such-flag"]]
     for i, extra in enumerate(cases):
         out = work / f"out{i}.json"
         proc = run(TINY + extra + ["--out", str(out)], expect=2)
@@ -412,6 +411,60 @@ def case_bad_input():
         check(lines, f"{extra}: no message")
         check(not out.exists(), f"{extra}: wrote a results file")
     check(sorted(p.name for p in work.iterdir()) == ["bad.json"], "bad input left files behind")
+
+
+def check_rounds(path, rounds, repetitions, build_repetitions):
+    """Every cell that ran holds its repetitions of every round, agreeing; skipped cells stay one record."""
+    doc = load(path)
+    check_repetition_records(doc["records"])
+    ran = [r for r in doc["benchmarks"] if "skipped" not in r]
+    check(ran, f"{path}: no cell ran")
+    for rec in doc["benchmarks"]:
+        check_record_fields(rec)
+        if "skipped" in rec:
+            check("rounds" not in rec, f"{rec['name']}: a skipped cell has rounds")
+            continue
+        per_round = build_repetitions if rec["type"] == "build" else repetitions
+        check(rec.get("rounds") == rounds and rec["repetitions"] == rounds * per_round,
+              f"{rec['name']}: {rec.get('rounds')} rounds, {rec['repetitions']} repetitions")
+        check(rec["type"] == "build" or not rec["exact"] or rec.get("agrees") is True,
+              f"{rec['name']}: disagrees: {rec.get('disagreement')}")
+    check(doc["context"]["config"].get("rounds") == rounds, "config.rounds")
+    return doc
+
+
+def case_rounds():
+    """--rounds N: N passes over the plan, each cell's calls of every pass in its one record; resumable."""
+    work = fresh_workdir()
+    common = ["--points", "300", "--dists", "0:0.3:0.1", "--repetitions", "1", "--adapters",
+              "brute_force,nanoflann_kdtree", "--datasets", "hollow_sphere:hollow_cube", "--strategies", "default"]
+    args = common + ["--rounds", "3"]
+    whole = work / "whole.json"
+    run(args + ["--out", str(whole)])
+    n_cells = len(check_rounds(whole, 3, 1, 3)["benchmarks"])
+    # one round writes the file as before: no rounds anywhere
+    one = work / "one.json"
+    run(common + ["--out", str(one)])
+    check(all("rounds" not in r for r in load_raw(one)["benchmarks"]) and
+          "rounds" not in load_raw(one)["context"]["config"], "a run of one round records rounds")
+    # cells over the budget are skipped in the first round and not run again
+    tight = work / "tight.json"
+    run(args + ["--budget", "1e-9", "--out", str(tight)])
+    doc = check_rounds(tight, 3, 1, 3)
+    check(any("skipped" in r for r in doc["benchmarks"]), "a 1 ns budget skipped nothing")
+    # killed in the second round, resumed: every cell ends with its three rounds
+    killed = work / "killed.json"
+    proc = run(args + ["--out", str(killed)], env={"NNB_SWEEP_ABORT_AFTER_CELLS": str(n_cells + 5)}, expect=None)
+    check(proc.returncode == -9, f"the fault-injected run was not killed (exit {proc.returncode})")
+    partial = load(killed)["benchmarks"]
+    check(len(partial) == n_cells and {r.get("rounds") for r in partial} == {None, 2},
+          f"killed run: {len(partial)} cells, rounds {sorted({str(r.get('rounds')) for r in partial})}")
+    refused = run(common + ["--rounds", "2", "--out", str(killed), "--resume"], expect=2)
+    check("configuration" in refused.stderr, f"a resume with other rounds: {refused.stderr}")
+    run(args + ["--out", str(killed), "--resume"])
+    resumed = check_rounds(killed, 3, 1, 3)
+    check(sorted(r["name"] for r in resumed["benchmarks"]) == sorted(r["name"] for r in load(whole)["benchmarks"]),
+          "the resumed run's cells differ from the whole run's")
 
 
 def case_quick_tiny():
@@ -791,7 +844,7 @@ def case_shards():
 CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "min_time": case_min_time, "threads": case_threads,
          "compare_py": case_compare_py, "table1": case_table1, "strategies": case_strategies, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
          "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
-         "scale_budget": case_scale_budget, "shards": case_shards}
+         "scale_budget": case_scale_budget, "shards": case_shards, "rounds": case_rounds}
 
 if __name__ == "__main__":
     CASES[CASE]()

@@ -138,7 +138,7 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
   if (!doc.is_object()) throw InputError(path + ": an experiment is a JSON object");
   static const std::set<std::string> known{
       "name", "description", "pairs", "grid", "real_pairs", "adapters", "searches", "strategies", "k", "dists", "repetitions",
-      "build_repetitions", "budget_seconds", "min_time_seconds", "threads", "neighbour_budget", "synthetic_points", "seed",
+      "build_repetitions", "rounds", "budget_seconds", "min_time_seconds", "threads", "neighbour_budget", "synthetic_points", "seed",
       "memory_limit_gib", "skip_larger_models", "cell_timeout_seconds"};
   for (const auto& item : doc.items()) {
     if (!known.count(item.key())) throw InputError(path + ": unknown field '" + item.key() + "'");
@@ -173,6 +173,7 @@ Experiment load_experiment(const std::string& path, const std::vector<std::strin
   if (doc.contains("dists")) e.dists = parse_dists(get<std::string>(doc, "dists", path));
   if (doc.contains("repetitions")) e.repetitions = get_whole<int>(doc, "repetitions", path);
   if (doc.contains("build_repetitions")) e.build_repetitions = get_whole<int>(doc, "build_repetitions", path);
+  if (doc.contains("rounds")) e.rounds = get_whole<int>(doc, "rounds", path);
   if (doc.contains("budget_seconds")) e.budget_s = get<double>(doc, "budget_seconds", path);
   if (doc.contains("min_time_seconds")) e.min_time_s = get<double>(doc, "min_time_seconds", path);
   if (doc.contains("threads")) e.threads = get_whole<int>(doc, "threads", path);
@@ -215,6 +216,9 @@ void validate(const Experiment& e, const std::vector<std::string>& all_adapters)
   }
   if (e.repetitions < 1) throw InputError("repetitions must be at least 1");
   if (e.build_repetitions < 1) throw InputError("build repetitions must be at least 1");
+  if (e.rounds < 1 || e.rounds > kMaxRounds) {
+    throw InputError("rounds must be from 1 to " + std::to_string(kMaxRounds));
+  }
   if (!(e.budget_s > 0.0)) throw InputError("the time budget must be > 0 s");
   if (!(e.min_time_s >= 0.0)) throw InputError("min_time_seconds must be >= 0 s");
   if (e.threads < 1 || e.threads > SearchIndex::kMaxThreads) {

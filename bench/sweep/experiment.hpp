@@ -16,6 +16,8 @@ struct DataPair {
 /// The swept maximal distances in metres: start + i * step for i = 0, 1, ... while <= stop.
 /// More distances than this in one sweep is a mistyped step, refused before any list is built.
 constexpr double kMaxDistances = 100000;
+/// More passes than this over a plan is a typing error, not an experiment.
+constexpr int kMaxRounds = 1000;
 
 struct DistRange {
   double start_m = 0.0;
@@ -43,6 +45,9 @@ struct Experiment {
   DistRange dists;
   int repetitions = 3;  ///< timed calls per cell at most; each is its own record
   int build_repetitions = 3;
+  /// Passes over the whole plan: each pass after the first times every cell that ran (and each build)
+  /// again, so that a cell's repetitions lie minutes apart rather than back to back.
+  int rounds = 1;
   double budget_s = 2.0;                      ///< per cell, per repetition
   double min_time_s = 0.0;  ///< repeat a cell until its calls took this long in total (0: every repetition)
   int threads = 1;          ///< threads a search call may use (SearchIndex::set_threads); builds use one

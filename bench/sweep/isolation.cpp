@@ -22,7 +22,7 @@ namespace {
 class PipeSink final : public ResultsSink {
  public:
   PipeSink(int fd, const ResultsSink& known) : fd_(fd), known_(known) {}
-  bool has(const std::string& name) const override { return known_.has(name); }
+  const Record* find(const std::string& name) const override { return known_.find(name); }
   void add(const std::vector<Record>& batch) override {
     const std::string line = batch_to_json_line(batch) + "\n";
     for (std::size_t sent = 0; sent < line.size();) {

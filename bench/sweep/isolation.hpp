@@ -11,7 +11,7 @@
 namespace nnb::sweep {
 
 /// Runs body in a forked child; every batch the child adds to its sink arrives through on_batch in this
-/// process, in order. The child's sink answers has() from `known` as it was at the fork. Returns why the
+/// process, in order. The child's sink answers find() from `known` as it was at the fork. Returns why the
 /// child failed ("crashed: ..." for a signal or a non-zero exit, "timed out: ..." when no batch arrived for
 /// timeout_s seconds, after which it is killed), empty when it finished. On SIGINT or SIGTERM the child is
 /// stopped and "interrupted" is returned.

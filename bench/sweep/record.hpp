@@ -30,6 +30,7 @@ struct Record {
   std::optional<int> k;              ///< absent for radius
   std::string skipped;  ///< why the cell did not run; empty when it ran
   int repetitions = 0;  ///< repetitions actually timed
+  int rounds = 1;       ///< passes of the plan (--rounds) whose repetitions it holds
   int threads = 1;      ///< threads the search calls (or the build) ran on
   std::vector<double> wall_each_s;  ///< each repetition's wall time, in the order timed
   std::vector<double> cpu_each_s;   ///< each repetition's process CPU time

@@ -54,6 +54,7 @@ ordered_json config_of(const RunDescription& run) {
   c["dists"] = {{"start_m", e.dists.start_m}, {"stop_m", e.dists.stop_m}, {"step_m", e.dists.step_m}};
   c["repetitions"] = e.repetitions;
   c["build_repetitions"] = e.build_repetitions;
+  if (e.rounds > 1) c["rounds"] = e.rounds;  // absent: one, so that files of one round resume as before
   c["budget_seconds"] = e.budget_s;
   c["min_time_seconds"] = e.min_time_s;
   c["threads"] = e.threads;
@@ -138,6 +139,7 @@ void put_cell(ordered_json& j, const Record& r) {
     put_stats(j, "cpu_", r.cpu);
   }
   j["n_points"] = r.n_points;
+  if (r.rounds > 1) j["rounds"] = r.rounds;
   if (!r.skips_larger.empty()) j["skips_larger_models"] = r.skips_larger;
   if (r.type == Record::Type::build) {
     if (r.skipped.empty()) j["build_seconds"] = r.wall.median_s;
@@ -269,6 +271,7 @@ Record from_json(const std::vector<const json*>& group) {
   r.adapter = j.at("adapter").get<std::string>();
   r.exact = j.at("exact").get<bool>();
   r.repetitions = whole<int>(j, "repetitions");
+  r.rounds = whole_or<int>(j, "rounds", 1);
   r.threads = whole_or<int>(j, "threads", 1);
   r.wall = get_stats(j, "");
   r.cpu = get_stats(j, "cpu_");
@@ -394,19 +397,31 @@ bool ResultsFile::resume(bool retry_failed) {
   original["resumed"].push_back(json_->context["date"]);
   json_->context = original;
   for (auto& [record, text] : read_records(doc, path_, retry_failed)) {
-    names_.insert(record.name);
+    where_.emplace(record.name, records_.size());
     records_.push_back(std::move(record));
     serialised_.push_back(std::move(text));
   }
   return true;
 }
 
+const Record* ResultsFile::find(const std::string& name) const {
+  const auto it = where_.find(name);
+  return it == where_.end() ? nullptr : &records_[it->second];
+}
+
 void ResultsFile::add(const std::vector<Record>& batch) {
   for (const auto& r : batch) {
-    if (!names_.insert(r.name).second) continue;
-    records_.push_back(r);
-    serialised_.push_back(serialise(to_json(r)));
-    pending_bytes_ += serialised_.back().size();
+    const auto [it, fresh] = where_.emplace(r.name, records_.size());
+    if (fresh) {
+      records_.push_back(r);
+      serialised_.push_back(serialise(to_json(r)));
+    } else if (r.rounds > records_[it->second].rounds) {
+      records_[it->second] = r;
+      serialised_[it->second] = serialise(to_json(r));
+    } else {
+      continue;
+    }
+    pending_bytes_ += serialised_[it->second].size();
   }
   if (checkpoint_due()) write();
   if (const int signal = files::interrupted()) {

@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cstddef>
+#include <map>
 #include <memory>
 #include <set>
 #include <string>
@@ -56,7 +57,7 @@ class ResultsFile final : public ResultsSink {
   /// Records already in the file (after resume()) and added since.
   const std::vector<Record>& records() const { return records_; }
 
-  bool has(const std::string& name) const override { return names_.count(name) > 0; }
+  const Record* find(const std::string& name) const override;
   void add(const std::vector<Record>& batch) override;
   /// Writes the whole file atomically now; throws InputError on an I/O failure.
   void write();
@@ -70,7 +71,7 @@ class ResultsFile final : public ResultsSink {
   std::unique_ptr<Json> json_;  // context and config, nlohmann kept out of this header
   std::vector<Record> records_;
   std::vector<std::string> serialised_;  // each record's JSON text, made once
-  std::set<std::string> names_;
+  std::map<std::string, std::size_t> where_;  // a cell's place in records_
   bool checkpoint_due() const;
   std::size_t added_ = 0;
   std::size_t pending_bytes_ = 0;  // serialised since the last write

@@ -402,6 +402,109 @@ void run_unit_isolated(const Unit& unit, SweepState& s, ResultsSink& sink) {
   s.progress.advance(batch.size());
 }
 
+// Rounds after the first: each cell that ran is timed again in a later pass over the whole plan, and its
+// calls join the cell's record; the answers must be those of the first round.
+
+// Whether the cell takes part in this round: it ran, and has fewer rounds than this one.
+bool due_in_round(const Record* r, int round) { return r && r->skipped.empty() && r->rounds < round; }
+
+// old with fresh's timings added as one more round.
+Record with_round(const Record& old, const Record& fresh) {
+  Record merged = old;
+  merged.wall_each_s.insert(merged.wall_each_s.end(), fresh.wall_each_s.begin(), fresh.wall_each_s.end());
+  merged.cpu_each_s.insert(merged.cpu_each_s.end(), fresh.cpu_each_s.begin(), fresh.cpu_each_s.end());
+  merged.repetitions += fresh.repetitions;
+  merged.wall = stats_of(merged.wall_each_s);
+  merged.cpu = stats_of(merged.cpu_each_s);
+  merged.rounds = old.rounds + 1;
+  return merged;
+}
+
+// An exact adapter must answer every round alike; a differing round marks the cell as disagreeing.
+bool same_answers(const Record& old, const Record& fresh, Record& merged) {
+  const double tolerance = 1e-9 * std::max(std::abs(old.dist_sum_m), std::abs(fresh.dist_sum_m));
+  if (!old.exact || (fresh.found == old.found && fresh.neighbours == old.neighbours &&
+                     std::abs(fresh.dist_sum_m - old.dist_sum_m) <= tolerance)) {
+    return true;
+  }
+  std::ostringstream text;
+  text << std::setprecision(17) << "round " << merged.rounds << ": found " << fresh.found << " vs " << old.found
+       << ", dist_sum " << fresh.dist_sum_m << " m vs " << old.dist_sum_m << " m in the first round";
+  merged.agrees = false;
+  merged.disagreement = text.str();
+  return false;
+}
+
+// The unit's records due in this round, its build's included.
+std::size_t due_count(const PlanUnit& planned, const ResultsSink& sink, int round) {
+  const auto names = planned.cell_names();
+  return static_cast<std::size_t>(
+      std::count_if(names.begin(), names.end(), [&](const auto& n) { return due_in_round(sink.find(n), round); }));
+}
+
+// The unit's records skipped for good: counted as done in every round, for the progress bar.
+std::size_t skipped_count(const PlanUnit& planned, const ResultsSink& sink) {
+  const auto names = planned.cell_names();
+  return static_cast<std::size_t>(std::count_if(names.begin(), names.end(), [&](const auto& n) {
+    const Record* r = sink.find(n);
+    return r && !r->skipped.empty();
+  }));
+}
+
+// The unit's build and its cells due in this round, as the child runs them.
+void run_unit_round(const Unit& unit, int round, SweepState& s, ResultsSink& sink) {
+  const std::string label = "round " + std::to_string(round) + ": ";
+  s.progress.begin(unit.build);
+  Record b = build_record(unit);
+  double slowest_build_s = 0.0;
+  const std::unique_ptr<SearchIndex> index = build_index(unit, s.e, b, slowest_build_s, s.progress);
+  if (!index) return;  // build_index said why; the cells keep their earlier rounds
+  if (const Record* old = sink.find(unit.build); due_in_round(old, round)) {
+    sink.add({with_round(*old, b)});
+    s.progress.end(1, label + "built in " + seconds_text(b.wall.median_s) + " s");
+  }
+  for (const auto& [pair, groups] : unit.work) {
+    for (const auto& group : groups) {
+      for (const auto& cell : group.cells) {
+        const Record* old = sink.find(cell.name);
+        if (!due_in_round(old, round)) continue;
+        s.progress.begin(cell.name);
+        Record fresh = sweep_record(*pair, unit.adapter, group, cell, s.data);
+        try {
+          run_cell(*index, s.data.queries.at(pair->query).points, group, cell, s.e, fresh);
+        } catch (const std::exception& ex) {
+          s.progress.loud("ERROR " + label + cell.name + ": " + ex.what());
+          continue;
+        }
+        Record merged = with_round(*old, fresh);
+        if (!same_answers(*old, fresh, merged)) s.progress.loud("DISAGREEMENT " + cell.name + ": " + merged.disagreement);
+        sink.add({merged});
+        s.progress.end(1, label + seconds_text(fresh.wall.median_s) + " s");
+      }
+    }
+  }
+}
+
+// The unit's round in a child process. A crash or hang costs this round's calls of the cells it did not
+// finish, which keep their earlier rounds (and --resume runs them again).
+void run_unit_round_isolated(const Unit& unit, int round, SweepState& s, ResultsSink& sink) {
+  const auto on_batch = [&](const std::vector<Record>& batch) {
+    for (const auto& r : batch) s.disagreements += r.agrees && !*r.agrees;
+    s.progress.advance(batch.size());
+    sink.add(batch);
+  };
+  const std::string failure = run_in_child(
+      sink, [&](ResultsSink& pipe) { run_unit_round(unit, round, s, pipe); }, on_batch, s.e.cell_timeout_s);
+  if (failure == "interrupted") {
+    sink.add({});
+    return;
+  }
+  if (!failure.empty()) {
+    s.progress.loud("ERROR " + unit.build + " in round " + std::to_string(round) + ": " + failure + " in " +
+                    unit.adapter.name);
+  }
+}
+
 }  // namespace
 
 std::size_t run_experiment(const Experiment& e, const LoadedData& data, const SweepPlan& plan,
@@ -428,6 +531,13 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const Sw
       continue;
     }
     run_unit_isolated(unit, state, sink);
+  }
+  for (int round = 2; round <= e.rounds; ++round) {
+    for (const auto& planned : plan.units()) {
+      if (in_shard && !in_shard(planned.model, planned.adapter->name)) continue;
+      progress.advance(skipped_count(planned, sink));
+      if (due_count(planned, sink, round) > 0) run_unit_round_isolated(unit_of(planned, data), round, state, sink);
+    }
   }
   return state.disagreements;
 }

@@ -36,8 +36,11 @@ class ResultsSink {
  public:
   virtual ~ResultsSink() = default;
   /// Whether a cell of that name is already recorded (resume).
-  virtual bool has(const std::string& name) const = 0;
-  /// Records and checkpoints a batch of cells.
+  bool has(const std::string& name) const { return find(name) != nullptr; }
+  /// The cell of that name as recorded, or null.
+  virtual const Record* find(const std::string& name) const = 0;
+  /// Records and checkpoints a batch of cells; a cell already recorded is replaced only by one of more
+  /// rounds (its next round's repetitions added).
   virtual void add(const std::vector<Record>& batch) = 0;
 };
 
