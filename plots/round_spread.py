@@ -1,0 +1,91 @@
+#!/usr/bin/env python3
+"""How a cell's time moves between rounds and within one: python3 plots/round_spread.py FILE.json.
+
+A run_sweep file made with --rounds R (R >= 2) holds, for each timed cell, R rounds of `repetitions` calls in
+the order timed: within a round the calls ran back to back, between rounds a whole pass over the plan lay
+between them. Per cell: the spread within rounds (the median over its rounds of a round's slowest call over
+its fastest) and between rounds (the slowest round's median over the fastest's). Per adapter: their geometric
+means, the cells that moved more between rounds than within, and how far the first round's median alone (what
+a run of one round reports) lay from the median of all the cell's calls."""
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import results_io  # noqa: E402
+
+
+def cell_rounds(doc):
+    """{(adapter, cell name): [[seconds of each call] per round]} of the cells that hold every round in full."""
+    config = (doc.get("context") or {}).get("config") or {}
+    rounds, per_round = config.get("rounds", 1), config.get("repetitions")
+    if not isinstance(rounds, int) or rounds < 2 or not isinstance(per_round, int):
+        raise ValueError("not a run of two rounds or more (context.config.rounds)")
+    calls = {}
+    for rec in doc.get("benchmarks", []):
+        if rec.get("type") != "sweep" or rec.get("run_type") != "iteration" or results_io._skip_reason(rec):
+            continue
+        seconds = results_io.record_seconds(rec, ())
+        if seconds is not None:
+            calls.setdefault((rec.get("adapter"), results_io.run_name(rec)), []).append(
+                (rec.get("repetition_index", 0), seconds))
+    cells = {}
+    for key, timed in calls.items():
+        times = [t for _, t in sorted(timed)]
+        if len(times) == rounds * per_round:  # fewer: --min-time cut some round short
+            cells[key] = [times[i * per_round:(i + 1) * per_round] for i in range(rounds)]
+    return cells
+
+
+def spreads(rounds):
+    """(within, between, first round's median over all calls' median) of one cell."""
+    within = results_io._median([max(r) / min(r) for r in rounds])
+    medians = [results_io._median(r) for r in rounds]
+    every = results_io._median([t for r in rounds for t in r])
+    return within, max(medians) / min(medians), medians[0] / every
+
+
+def geomean(values):
+    return math.exp(sum(math.log(v) for v in values) / len(values))
+
+
+def summary(cells):
+    """[(adapter, cells, within, between, cells moving more between than within, cells whose first round
+    lay over 10 % from all, the largest such distance)], adapters sorted, then 'all'."""
+    by_adapter = {}
+    for (adapter, _), rounds in cells.items():
+        by_adapter.setdefault(adapter, []).append(spreads(rounds))
+    rows = []
+    for adapter in sorted(by_adapter) + ["all"]:
+        stats = [s for a in by_adapter for s in by_adapter[a]] if adapter == "all" else by_adapter[adapter]
+        off = [max(f, 1 / f) for _, _, f in stats]
+        rows.append((adapter, len(stats), geomean([w for w, _, _ in stats]), geomean([b for _, b, _ in stats]),
+                     sum(b > w for w, b, _ in stats), sum(o > 1.1 for o in off), max(off)))
+    return rows
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("file", help="a run_sweep results file made with --rounds 2 or more")
+    path = parser.parse_args().file
+    try:
+        cells = cell_rounds(json.loads(Path(path).read_text()))
+    except (OSError, ValueError, AttributeError) as e:
+        print(f"round_spread.py: {path}: {e}", file=sys.stderr)
+        return 2
+    if not cells:
+        print(f"round_spread.py: {path}: no cell holds every round in full", file=sys.stderr)
+        return 2
+    print("| adapter | cells | within rounds | between rounds | more between than within | first round > 10 % off "
+          "| largest first-round offset |")
+    print("|---|---|---|---|---|---|---|")
+    for adapter, n, within, between, more, off, worst in summary(cells):
+        print(f"| {adapter} | {n} | {within:.3f} | {between:.3f} | {more} | {off} | {worst:.3f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
