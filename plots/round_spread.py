@@ -5,8 +5,9 @@ A run_sweep file made with --rounds R (R >= 2) holds, for each timed cell, R rou
 the order timed: within a round the calls ran back to back, between rounds a whole pass over the plan lay
 between them. Per cell: the spread within rounds (the median over its rounds of a round's slowest call over
 its fastest) and between rounds (the slowest round's median over the fastest's). Per adapter: their geometric
-means, the cells that moved more between rounds than within, and how far the first round's median alone (what
-a run of one round reports) lay from the median of all the cell's calls."""
+means, the cells that moved more between rounds than within, how far the first round's median alone (what a
+run of one round reports) lay from the median of all the cell's calls, and which round was the slowest (a
+warm-up shows as the first, slow spells of the machine fall on any)."""
 import argparse
 import json
 import math
@@ -41,11 +42,11 @@ def cell_rounds(doc):
 
 
 def spreads(rounds):
-    """(within, between, first round's median over all calls' median) of one cell."""
+    """(within, between, first round's median over all calls' median, slowest round from 0) of one cell."""
     within = results_io._median([max(r) / min(r) for r in rounds])
     medians = [results_io._median(r) for r in rounds]
     every = results_io._median([t for r in rounds for t in r])
-    return within, max(medians) / min(medians), medians[0] / every
+    return within, max(medians) / min(medians), medians[0] / every, medians.index(max(medians))
 
 
 def geomean(values):
@@ -54,16 +55,19 @@ def geomean(values):
 
 def summary(cells):
     """[(adapter, cells, within, between, cells moving more between than within, cells whose first round
-    lay over 10 % from all, the largest such distance)], adapters sorted, then 'all'."""
+    lay over 10 % from all, the largest such distance, [cells whose slowest round was each round])],
+    adapters sorted, then 'all'."""
     by_adapter = {}
     for (adapter, _), rounds in cells.items():
         by_adapter.setdefault(adapter, []).append(spreads(rounds))
+    n_rounds = len(next(iter(cells.values())))
     rows = []
     for adapter in sorted(by_adapter) + ["all"]:
         stats = [s for a in by_adapter for s in by_adapter[a]] if adapter == "all" else by_adapter[adapter]
-        off = [max(f, 1 / f) for _, _, f in stats]
-        rows.append((adapter, len(stats), geomean([w for w, _, _ in stats]), geomean([b for _, b, _ in stats]),
-                     sum(b > w for w, b, _ in stats), sum(o > 1.1 for o in off), max(off)))
+        off = [max(f, 1 / f) for _, _, f, _ in stats]
+        slowest = [sum(s[3] == i for s in stats) for i in range(n_rounds)]
+        rows.append((adapter, len(stats), geomean([s[0] for s in stats]), geomean([s[1] for s in stats]),
+                     sum(s[1] > s[0] for s in stats), sum(o > 1.1 for o in off), max(off), slowest))
     return rows
 
 
@@ -80,10 +84,11 @@ def main():
         print(f"round_spread.py: {path}: no cell holds every round in full", file=sys.stderr)
         return 2
     print("| adapter | cells | within rounds | between rounds | more between than within | first round > 10 % off "
-          "| largest first-round offset |")
-    print("|---|---|---|---|---|---|---|")
-    for adapter, n, within, between, more, off, worst in summary(cells):
-        print(f"| {adapter} | {n} | {within:.3f} | {between:.3f} | {more} | {off} | {worst:.3f} |")
+          "| largest first-round offset | slowest round: cells a round |")
+    print("|---|---|---|---|---|---|---|---|")
+    for adapter, n, within, between, more, off, worst, slowest in summary(cells):
+        print(f"| {adapter} | {n} | {within:.3f} | {between:.3f} | {more} | {off} | {worst:.3f} | "
+              f"{' / '.join(map(str, slowest))} |")
     return 0
 
 

@@ -34,14 +34,16 @@ class RoundSpreadTest(unittest.TestCase):
         cells = round_spread.cell_rounds(document(steady + spell))
         self.assertEqual(cells[("ours_kdtree", spell[0]["name"])], [[0.015, 0.016], [0.010, 0.011], [0.010, 0.011]])
         rows = {r[0]: r for r in round_spread.summary(cells)}
-        _, n, within, between, more, off, worst = rows["ours_kdtree"]
+        _, n, within, between, more, off, worst, slowest = rows["ours_kdtree"]
         self.assertEqual(n, 1)
         self.assertAlmostEqual(within, 1.1)  # the median round's 11 / 10
         self.assertAlmostEqual(between, 15.5 / 10.5)
         self.assertEqual((more, off), (1, 1))
         self.assertAlmostEqual(worst, 15.5 / 11.0)  # first round's median over all six calls' median
+        self.assertEqual(slowest, [1, 0, 0])
         self.assertEqual(rows["ann_kdtree"][3:6], (1.0, 0, 0))
         self.assertEqual(rows["all"][1], 2)
+        self.assertEqual(rows["all"][7], [2, 0, 0])  # ann_kdtree's rounds tie: the first of the slowest
 
     def test_cells_cut_short_and_skipped_cells_are_left_out(self):
         short = cell("ours_kdtree", [10, 11, 10, 11, 10])
