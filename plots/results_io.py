@@ -68,6 +68,18 @@ def record_seconds(rec, fields=("median_seconds", "median_s")):
     return real_time * UNIT_SECONDS[unit]
 
 
+# A cell's time: the median of its calls (what the figures and claims take by default), or the fastest of them,
+# which a slow spell of the machine lasting through some of a cell's calls does not move.
+STATISTICS = ("median", "fastest")
+
+
+def cell_seconds(rec, statistic="median", median_fields=("median_seconds", "median_s")):
+    """The record's time by statistic; 'fastest' is its min_s (None when the record keeps no fastest call)."""
+    if statistic == "fastest":
+        return next((v for v in (_number(rec.get(f)) for f in ("min_seconds", "min_s")) if v is not None), None)
+    return record_seconds(rec, median_fields)
+
+
 def _skip_reason(rec):
     if rec.get("skipped"):
         return str(rec["skipped"])
@@ -94,6 +106,7 @@ class Results:
         self.adapters = {}   # name -> {library, version, structure, knn, radius, ranged, exact, params}
         self.duplicates = {}  # record name -> [paths of every file holding it], when more than one
         self.datasets = {}   # (spec, role) -> a context.datasets entry: the last file's (newest with prefer), see merged_dataset
+        self.statistic = "median"  # of a cell's calls: its time (see cell_seconds)
 
     def adapter_info(self, name):
         return self.adapters.get(name, {})
@@ -112,15 +125,16 @@ class Results:
             info.setdefault("exact", rec["exact"])
 
 
-def _read_sweep(results, rec, sizes=None):
+def _read_sweep(results, rec, sizes=None, statistic="median"):
     model, query, adapter, search = (rec.get(field) for field in ("model", "query", "adapter", "search"))
     if not (model and query and adapter and search):
         warn(f"sweep record {rec.get('name')!r} lacks model/query/adapter/search: ignored")
         return
     skipped = _skip_reason(rec)
-    seconds = None if skipped else record_seconds(rec)
+    seconds = None if skipped else cell_seconds(rec, statistic)
     if seconds is None and not skipped:
-        warn(f"{rec.get('name')}: no time (median_seconds or real_time+time_unit): ignored")
+        wanted = "min_s" if statistic == "fastest" else "median_seconds or real_time+time_unit"
+        warn(f"{rec.get('name')}: no time ({wanted}): ignored")
         return
     max_dist = _number(rec.get("max_dist"))
     if max_dist is None and search != "knn":
@@ -137,7 +151,7 @@ def _read_sweep(results, rec, sizes=None):
     results._note_adapter(rec)
 
 
-def _read_build(results, rec):
+def _read_build(results, rec, statistic="median"):
     model, adapter = rec.get("model"), rec.get("adapter")
     if model and adapter and _skip_reason(rec):
         results.build_skips[(model, adapter)] = _skip_reason(rec)
@@ -145,9 +159,9 @@ def _read_build(results, rec):
     if not (model and adapter):
         warn(f"build record {rec.get('name')!r} incomplete: ignored")
         return
-    seconds = record_seconds(rec, "build_seconds")
+    seconds = cell_seconds(rec, statistic, "build_seconds")
     if seconds is None:
-        warn(f"{rec.get('name')}: no build_seconds: ignored")
+        warn(f"{rec.get('name')}: no {'min_s' if statistic == 'fastest' else 'build_seconds'}: ignored")
         return
     results.builds.append(Build(model, adapter, seconds, _number(rec.get("index_bytes")),
                                 _number(rec.get("n_points")), len(results.files) - 1, record_threads(rec)))
@@ -416,13 +430,15 @@ def file_date(context):
     return str(context.get("date") or "")
 
 
-def load(paths, prefer=None):
-    """Reads every results file; a file that cannot be read is reported and left out.
+def load(paths, prefer=None, statistic="median"):
+    """Reads every results file; a file that cannot be read is reported and left out. statistic: each sweep
+    cell's and build's time is the median of its calls, or the fastest (see cell_seconds).
 
     A record (name and set sizes) found in several files is noted in Results.duplicates; the copy used is the
     newest file's (context date, then reading order) when prefer == "newest", else the last one read. Callers that
     must not guess refuse duplicates unless asked to prefer the newest (see provenance.py)."""
     results = Results()
+    results.statistic = statistic
     docs = []
     for path in paths:
         try:
@@ -470,10 +486,10 @@ def load(paths, prefer=None):
                 on_threads = f" ({threads_text(threads)})" if threads > 1 else ""
                 seen.setdefault(f"{experiment_of(context)}: {run_name(rec)}{on_threads}", []).append(path)
             if kind == "sweep":
-                _read_sweep(results, rec, sizes)
+                _read_sweep(results, rec, sizes, statistic)
                 sweep_files.append(path)
             elif kind == "build":
-                _read_build(results, rec)
+                _read_build(results, rec, statistic)
             elif kind == "icp":
                 _read_icp(results, rec, experiment_of(context), context)
     results.duplicates = {name: files for name, files in seen.items() if len(set(files)) > 1}

@@ -1,4 +1,5 @@
 """findings.py verdicts on fixtures built to make each claim hold, fail, or lack data."""
+import json
 import subprocess
 import sys
 import tempfile
@@ -87,6 +88,30 @@ class FindingsTest(unittest.TestCase):
             text = out.read_text()
         self.assertIn("| 3 | The k-NN-only libraries (CGAL, libspatialindex) are the slowest | **DOES NOT HOLD** |", text)
         self.assertIn("claim 3: DOES NOT HOLD", proc.stdout)
+
+    def test_statistic_fastest_judges_each_cells_fastest_call(self):
+        """ours_kdtree slow in its cells' medians (a slow spell) but not in their fastest calls: claim 5 follows
+        --statistic, and the output says which time it took."""
+        with tempfile.TemporaryDirectory() as tmp:
+            files = fixtures.write_all(tmp, speed={"ours_kdtree": 2.5})
+            doc = json.loads(files[0].read_text())
+            for rec in doc["benchmarks"]:
+                if rec.get("search") and not rec.get("skipped"):
+                    median = results_io.record_seconds(rec)
+                    rec["min_seconds"] = median * (0.2 if rec["adapter"] == "ours_kdtree" else 1.0)
+            files[0].write_text(json.dumps(doc))
+            runs = {}
+            for statistic in ("median", "fastest"):
+                out = Path(tmp) / f"{statistic}.md"
+                proc = subprocess.run([sys.executable, str(fixtures.PLOTS_DIR / "findings.py"), *map(str, files),
+                                       "--statistic", statistic, "--out", str(out)], capture_output=True, text=True,
+                                      timeout=120)
+                self.assertEqual(proc.returncode, 0, proc.stderr)
+                runs[statistic] = (proc.stdout, out.read_text())
+        self.assertIn("claim 5: DOES NOT HOLD", runs["median"][0])
+        self.assertIn("claim 5: HOLDS", runs["fastest"][0])
+        self.assertIn("A cell's time here is the fastest of its calls", runs["fastest"][1])
+        self.assertNotIn("A cell's time here", runs["median"][1])
 
 
 if __name__ == "__main__":

@@ -30,6 +30,20 @@ class ResultsIoTest(unittest.TestCase):
         got = {c.max_dist_m: c.seconds for c in r.sweep}
         self.assertEqual(got, {0.1: 0.25, 0.2: 0.5, None: 3.0})
 
+    def test_fastest_statistic_reads_the_fastest_call(self):
+        records = [cell("sweep/a/b/x/ranged/max_dist:0.10", max_dist=0.1, real_time=250.0, time_unit="ms",
+                        median_s=0.25, min_s=0.2),
+                   cell("sweep/a/b/x/ranged/max_dist:0.20", max_dist=0.2, real_time=300.0, time_unit="ms"),
+                   {"name": "build/a/x", "model": "a", "adapter": "x", "build_seconds": 0.5, "min_s": 0.4,
+                    "index_bytes": 8}]
+        with tempfile.TemporaryDirectory() as tmp:
+            path = fixtures.write(Path(tmp) / "r.json", "paper", records)
+            median, fastest = (results_io.load([path], statistic=s) for s in ("median", "fastest"))
+        self.assertEqual({c.max_dist_m: c.seconds for c in median.sweep}, {0.1: 0.25, 0.2: 0.3})
+        self.assertEqual({c.max_dist_m: c.seconds for c in fastest.sweep}, {0.1: 0.2})  # no fastest kept: left out
+        self.assertEqual([(b.build_seconds, fastest.statistic) for b in fastest.builds], [(0.4, "fastest")])
+        self.assertEqual([b.build_seconds for b in median.builds], [0.5])
+
     def test_icp_bucket_source(self):
         """An ICP file run at the best buckets of another file says, per adapter, best or default."""
         records = [{"name": f"icp/sick/{a}/bucket:{b}", "pair": "sick", "adapter": a, "bucket_size": b,
