@@ -53,6 +53,12 @@ double cpu_now_s() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
+// Whether two exact answers to one cell agree: the same queries found, distance sums within rounding.
+bool answers_agree(const Record& a, const Record& b) {
+  const double tolerance = 1e-9 * std::max(std::abs(a.dist_sum_m), std::abs(b.dist_sum_m));
+  return a.found == b.found && std::abs(a.dist_sum_m - b.dist_sum_m) <= tolerance;
+}
+
 // Compares exact adapters cell by cell with the first exact adapter that ran the same cell
 // (brute force, being first in the registry, whenever it ran).
 class Agreement {
@@ -76,8 +82,7 @@ class Agreement {
       r.agrees = true;
       return true;
     }
-    const double tolerance = 1e-9 * std::max(std::abs(ref.dist_sum_m), std::abs(r.dist_sum_m));
-    const bool same = r.found == ref.found && std::abs(r.dist_sum_m - ref.dist_sum_m) <= tolerance;
+    const bool same = answers_agree(r, ref);
     r.agrees = same;
     if (!same) {
       std::ostringstream text;
@@ -422,11 +427,7 @@ Record with_round(const Record& old, const Record& fresh) {
 
 // An exact adapter must answer every round alike; a differing round marks the cell as disagreeing.
 bool same_answers(const Record& old, const Record& fresh, Record& merged) {
-  const double tolerance = 1e-9 * std::max(std::abs(old.dist_sum_m), std::abs(fresh.dist_sum_m));
-  if (!old.exact || (fresh.found == old.found && fresh.neighbours == old.neighbours &&
-                     std::abs(fresh.dist_sum_m - old.dist_sum_m) <= tolerance)) {
-    return true;
-  }
+  if (!old.exact || (answers_agree(fresh, old) && fresh.neighbours == old.neighbours)) return true;
   std::ostringstream text;
   text << std::setprecision(17) << "round " << merged.rounds << ": found " << fresh.found << " vs " << old.found
        << ", dist_sum " << fresh.dist_sum_m << " m vs " << old.dist_sum_m << " m in the first round";
@@ -435,20 +436,12 @@ bool same_answers(const Record& old, const Record& fresh, Record& merged) {
   return false;
 }
 
-// The unit's records due in this round, its build's included.
-std::size_t due_count(const PlanUnit& planned, const ResultsSink& sink, int round) {
+// The unit's records (its build's included) that meet a condition.
+std::size_t count_records(const PlanUnit& planned, const ResultsSink& sink,
+                          const std::function<bool(const Record*)>& condition) {
   const auto names = planned.cell_names();
   return static_cast<std::size_t>(
-      std::count_if(names.begin(), names.end(), [&](const auto& n) { return due_in_round(sink.find(n), round); }));
-}
-
-// The unit's records skipped for good: counted as done in every round, for the progress bar.
-std::size_t skipped_count(const PlanUnit& planned, const ResultsSink& sink) {
-  const auto names = planned.cell_names();
-  return static_cast<std::size_t>(std::count_if(names.begin(), names.end(), [&](const auto& n) {
-    const Record* r = sink.find(n);
-    return r && !r->skipped.empty();
-  }));
+      std::count_if(names.begin(), names.end(), [&](const auto& n) { return condition(sink.find(n)); }));
 }
 
 // The unit's build and its cells due in this round, as the child runs them.
@@ -535,8 +528,11 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const Sw
   for (int round = 2; round <= e.rounds; ++round) {
     for (const auto& planned : plan.units()) {
       if (in_shard && !in_shard(planned.model, planned.adapter->name)) continue;
-      progress.advance(skipped_count(planned, sink));
-      if (due_count(planned, sink, round) > 0) run_unit_round_isolated(unit_of(planned, data), round, state, sink);
+      // skipped cells count as done in every round, for the progress bar
+      progress.advance(count_records(planned, sink, [](const Record* r) { return r && !r->skipped.empty(); }));
+      if (count_records(planned, sink, [&](const Record* r) { return due_in_round(r, round); }) > 0) {
+        run_unit_round_isolated(unit_of(planned, data), round, state, sink);
+      }
     }
   }
   return state.disagreements;
