@@ -609,6 +609,41 @@ TEST(QueryOrder, MortonOrderIsAPermutationAlongTheCurve) {
   }
 }
 
+// Sorted runs of distinct keys merge into one order, each part [first, last) on its own: one, two and
+// five runs (some empty, one wholly above the others, equal codes told apart by their index).
+TEST(QueryOrder, MergedRunsGiveEachPartOfTheSortedOrder) {
+  std::mt19937_64 rng(11);
+  for (const std::vector<std::size_t>& sizes : {std::vector<std::size_t>{9}, {0, 7}, {300, 41}, {5, 0, 64, 1, 200}}) {
+    std::vector<std::vector<std::uint64_t>> runs;
+    std::vector<std::uint64_t> all;
+    std::uint32_t index = 0;
+    for (std::size_t r = 0; r < sizes.size(); ++r) {
+      std::vector<std::uint64_t> run;
+      for (std::size_t i = 0; i < sizes[r]; ++i) {
+        const std::uint64_t code = r == 1 ? 1000 + i : rng() % 50;  // run 1 lies above the others
+        run.push_back(code << 32 | index++);
+      }
+      std::sort(run.begin(), run.end());
+      all.insert(all.end(), run.begin(), run.end());
+      runs.push_back(std::move(run));
+    }
+    std::sort(all.begin(), all.end());
+    ours::KeyRuns spans;
+    for (const auto& run : runs) spans.push_back({run.data(), run.data() + run.size()});
+    const std::size_t n = all.size();
+    for (const std::size_t parts : {std::size_t(1), std::size_t(2), std::size_t(3), n}) {
+      std::vector<std::uint32_t> order(n, ~0u);
+      for (std::size_t p = 0; p < parts; ++p) {
+        ours::merge_key_runs(spans, n * p / parts, n * (p + 1) / parts, order.data());
+      }
+      for (std::size_t i = 0; i < n; ++i) {
+        ASSERT_EQ(order[i], static_cast<std::uint32_t>(all[i]))
+            << sizes.size() << " runs, " << parts << " parts, at " << i;
+      }
+    }
+  }
+}
+
 TEST(QueryOrder, HostileCoordinatesStayOnTheGrid) {
   const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
   const std::vector<std::vector<double>> batches = {

@@ -85,6 +85,7 @@ struct MortonScratch {
   Neighbours answered;             ///< their rows, in that order
   std::vector<NearestRow> nearest;  ///< for 1-NN: their rows, in the caller's order
   std::vector<Box> share_boxes;    ///< on threads: the box of each member's share
+  ours::KeyRuns share_runs;        ///< on threads: each member's share of the keys, sorted
 
   /// An empty share's box: lo = +inf, hi = -inf, which joins to nothing.
   static Box empty_box() {
@@ -115,13 +116,16 @@ inline MortonScratch& morton_scratch() {
 }
 
 /// order (sized to the batch) = the queries' Morton order, as ours::morton_order makes it, found by a
-/// team: each member the box and the keys of its share, member 0 the sort (in its MortonScratch).
+/// team: each member finds the box and the keys of its share, sorts those keys in its own MortonScratch
+/// and merges its part of the order from every member's sorted keys (the whole batch sorted on member 0
+/// kept the others waiting).
 inline void morton_order_on_team(const Cloud& queries, const Team& team, std::vector<PointIndex>& order) {
   const auto n = static_cast<std::size_t>(queries.cols());
   team.phase([&] {
     if (team.member() != 0) return;
     MortonScratch& scratch = morton_scratch();
     scratch.share_boxes.resize(static_cast<std::size_t>(team.size()));
+    scratch.share_runs.resize(static_cast<std::size_t>(team.size()));
     scratch.order.keys.resize(n);
     team.publish(scratch);
   });
@@ -138,11 +142,12 @@ inline void morton_order_on_team(const Cloud& queries, const Team& team, std::ve
     const MortonScratch::Box all = scratch->joined_box();  // the same on every member
     ours::morton_keys(queries.data(), mine.first, mine.second, ours::morton_grid(all.first, all.second),
                       scratch->order.keys.data());
+    const std::size_t count = mine.second - mine.first;
+    const std::uint64_t* sorted =
+        ours::sort_morton_keys(scratch->order.keys.data() + mine.first, count, morton_scratch().order);
+    scratch->share_runs[static_cast<std::size_t>(team.member())] = {sorted, sorted + count};
   });
-  team.phase([&] {
-    if (team.member() == 0) ours::sort_morton_keys(scratch->order);
-  });
-  team.phase([&] { ours::indices_of_keys(scratch->order.keys, mine.first, mine.second, order.data()); });
+  team.phase([&] { ours::merge_key_runs(scratch->share_runs, mine.first, mine.second, order.data()); });
   if (team.member() == 0 && scratch != nullptr) scratch->release_if_large();
 }
 

@@ -233,10 +233,10 @@ TEST(Team, SharesCoverEveryItemOnce) {
 }
 
 // The Morton order a team finds (each member the box and keys of its share) is the one ours::morton_order
-// finds alone: both radix widths (batches under and over 2^15), and repeated points, whose equal codes in
-// every share keep the caller's order.
+// finds alone, each member sorting its share and merging its part: both radix widths (shares under and
+// over 2^15), and repeated points, whose equal codes in every share keep the caller's order.
 TEST(Team, MortonOrderOnATeamIsTheSerialOne) {
-  for (const Eigen::Index n : {Eigen::Index(300), Eigen::Index(5000), Eigen::Index(40000)}) {
+  for (const Eigen::Index n : {Eigen::Index(300), Eigen::Index(5000), Eigen::Index(40000), Eigen::Index(70000)}) {
     const Cloud scattered = cube_points(n, 9);
     Cloud repeated(3, n);
     for (Eigen::Index i = 0; i < n; ++i) repeated.col(i) = scattered.col(i % 37);

@@ -42,6 +42,10 @@ struct QueryOrder {
   std::vector<std::uint32_t> order;    ///< query indices in Morton order
 };
 
+/// Sorted runs of Morton keys, each as its [begin, end) pointers.
+using KeyRun = std::pair<const std::uint64_t*, const std::uint64_t*>;
+using KeyRuns = std::vector<KeyRun>;
+
 namespace detail {
 
 /// The cell of coordinate x on a grid of 1024 cells from lo with scale cells a metre, clamped to the grid
@@ -59,24 +63,89 @@ inline std::uint32_t grid_cell(double x, double lo, double scale) {
 #endif
 }
 
-/// Sorts keys by the 30 bits above their lower 32 in stable passes over the keys. Each pass costs about
-/// the same whatever its width while its counts stay in cache: two passes of 15 bits for large batches
-/// (nearly half the time of three passes of 10 on 60,000 queries), three of 10 for small ones, whose
-/// time is then in clearing and summing 2^15 counts.
-inline void radix_sort_codes(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch,
-                             std::vector<std::uint32_t>& start) {
+/// Sorts the n keys at keys by the 30 bits above their lower 32 in stable passes between keys and
+/// scratch; returns where the sorted keys lie (keys or scratch's memory). Each pass costs about the same
+/// whatever its width while its counts stay in cache: two passes of 15 bits for large batches (nearly half
+/// the time of three passes of 10 on 60,000 queries), three of 10 for small ones, whose time is then in
+/// clearing and summing 2^15 counts.
+inline std::uint64_t* radix_sort_codes(std::uint64_t* keys, std::size_t n, std::vector<std::uint64_t>& scratch,
+                                       std::vector<std::uint32_t>& start) {
   constexpr int kCodeBits = 30;
-  const int width = keys.size() >= (std::size_t(1) << 15) ? 15 : 10;
+  const int width = n >= (std::size_t(1) << 15) ? 15 : 10;
   const std::uint64_t mask = (std::uint64_t(1) << width) - 1;
   start.resize(std::size_t(1) << width);
-  scratch.resize(keys.size());
+  scratch.resize(n);
+  std::uint64_t* from = keys;
+  std::uint64_t* to = scratch.data();
   for (int shift = 32; shift < 32 + kCodeBits; shift += width) {
     std::fill(start.begin(), start.end(), 0u);
-    for (std::uint64_t key : keys) ++start[(key >> shift) & mask];
+    for (const std::uint64_t* key = from; key != from + n; ++key) ++start[(*key >> shift) & mask];
     std::uint32_t sum = 0;
     for (auto& s : start) sum += std::exchange(s, sum);
-    for (std::uint64_t key : keys) scratch[start[(key >> shift) & mask]++] = key;
-    keys.swap(scratch);
+    for (const std::uint64_t* key = from; key != from + n; ++key) {
+      const std::uint64_t value = *key;  // read once: for all the compiler knows, the store changes it
+      to[start[(value >> shift) & mask]++] = value;
+    }
+    std::swap(from, to);
+  }
+  return from;
+}
+
+/// The number of keys not above value in sorted runs.
+inline std::size_t count_not_above(const KeyRuns& runs, std::uint64_t value) {
+  std::size_t count = 0;
+  for (const KeyRun& run : runs) {
+    count += static_cast<std::size_t>(std::upper_bound(run.first, run.second, value) - run.first);
+  }
+  return count;
+}
+
+/// The key of rank r (from 0, below their total) among sorted runs of distinct keys: a binary search on
+/// the value, 64 steps of one binary search a run.
+inline std::uint64_t key_of_rank(const KeyRuns& runs, std::size_t r) {
+  std::uint64_t lo = 0, hi = ~std::uint64_t(0);
+  while (lo < hi) {
+    const std::uint64_t mid = lo + (hi - lo) / 2;
+    if (count_not_above(runs, mid) > r) {
+      hi = mid;
+    } else {
+      lo = mid + 1;
+    }
+  }
+  return lo;
+}
+
+/// Where each run's keys of rank r or more (among all runs' total, distinct keys) begin.
+inline std::vector<const std::uint64_t*> cuts_at_rank(const KeyRuns& runs, std::size_t r, std::size_t total) {
+  std::vector<const std::uint64_t*> cuts(runs.size());
+  const std::uint64_t key = 0 < r && r < total ? key_of_rank(runs, r) : 0;
+  for (std::size_t t = 0; t < runs.size(); ++t) {
+    cuts[t] = r == 0       ? runs[t].first
+              : r >= total ? runs[t].second
+                           : std::lower_bound(runs[t].first, runs[t].second, key);
+  }
+  return cuts;
+}
+
+/// Each run cut to its keys of ranks [first, last) among all runs.
+inline KeyRuns runs_of_ranks(const KeyRuns& runs, std::size_t first, std::size_t last, std::size_t total) {
+  const std::vector<const std::uint64_t*> begins = cuts_at_rank(runs, first, total);
+  const std::vector<const std::uint64_t*> ends = cuts_at_rank(runs, last, total);
+  KeyRuns parts(runs.size());
+  for (std::size_t t = 0; t < runs.size(); ++t) parts[t] = {begins[t], ends[t]};
+  return parts;
+}
+
+/// Merges two sorted runs' indices into order, branch-free (which run gives the next key is a coin toss).
+inline void merge_two_runs(KeyRun a, KeyRun b, std::uint32_t* order) {
+  while (a.first != a.second && b.first != b.second) {
+    const bool take_b = *b.first < *a.first;
+    *order++ = static_cast<std::uint32_t>(take_b ? *b.first : *a.first);
+    a.first += !take_b;
+    b.first += take_b;
+  }
+  for (KeyRun rest : {a, b}) {
+    for (; rest.first != rest.second; ++rest.first) *order++ = static_cast<std::uint32_t>(*rest.first);
   }
 }
 
@@ -111,10 +180,35 @@ inline void morton_keys(const double* xyz, std::size_t first, std::size_t last, 
   }
 }
 
-/// Sorts out.keys by their Morton codes (stable: queries in one cell keep their order).
-inline void sort_morton_keys(QueryOrder& out) { detail::radix_sort_codes(out.keys, out.scratch, out.counts); }
+/// Sorts the n keys at keys by their Morton codes (stable), with work's scratch and counts; returns where
+/// they now lie: keys, or work.scratch's memory (valid until work is used again).
+inline const std::uint64_t* sort_morton_keys(std::uint64_t* keys, std::size_t n, QueryOrder& work) {
+  return detail::radix_sort_codes(keys, n, work.scratch, work.counts);
+}
 
-/// The query indices of sorted keys [first, last) into order (a share, as for morton_keys).
+/// Sorts out.keys by their Morton codes (stable: queries in one cell keep their order).
+inline void sort_morton_keys(QueryOrder& out) {
+  if (sort_morton_keys(out.keys.data(), out.keys.size(), out) != out.keys.data()) out.keys.swap(out.scratch);
+}
+
+/// order[first, last) = the indices (lower 32 bits) of the keys of ranks first to last - 1 among sorted
+/// runs of distinct keys: the merged order, each part of which a thread of a team may fill on its own.
+inline void merge_key_runs(const KeyRuns& runs, std::size_t first, std::size_t last, std::uint32_t* order) {
+  std::size_t total = 0;
+  for (const KeyRun& run : runs) total += static_cast<std::size_t>(run.second - run.first);
+  KeyRuns parts = detail::runs_of_ranks(runs, first, last, total);
+  if (parts.size() == 2) return detail::merge_two_runs(parts[0], parts[1], order + first);
+  for (std::size_t i = first; i < last; ++i) {
+    std::size_t next = parts.size();
+    for (std::size_t t = 0; t < parts.size(); ++t) {
+      if (parts[t].first == parts[t].second) continue;
+      if (next == parts.size() || *parts[t].first < *parts[next].first) next = t;
+    }
+    order[i] = static_cast<std::uint32_t>(*parts[next].first++);
+  }
+}
+
+/// The query indices of sorted keys [first, last) into order.
 inline void indices_of_keys(const std::vector<std::uint64_t>& keys, std::size_t first, std::size_t last,
                             std::uint32_t* order) {
   for (std::size_t i = first; i < last; ++i) order[i] = static_cast<std::uint32_t>(keys[i]);
