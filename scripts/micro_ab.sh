@@ -3,17 +3,22 @@
 # one after the other ROUNDS times, so that the machine's slow spells fall on both; prints each benchmark's
 # fastest wall time under A and under B and their ratio B/A (below 1: B is faster). Header: both binaries'
 # versions and the load before and after. Ratios, not absolute times, are what it is for.
+# --noise runs A a second time after B in each round and adds the column A2/A: how far the same binary's fastest
+# times lie apart in this sitting, the noise a B/A must stand clear of (on some machines of this kind a binary
+# against itself moves by a third).
 #
-#   scripts/micro_ab.sh A_BINARY B_BINARY ROUNDS FILTER [FILTER...] > results/ab/NAME.txt
+#   scripts/micro_ab.sh [--noise] A_BINARY B_BINARY ROUNDS FILTER [FILTER...] > results/ab/NAME.txt
 set -euo pipefail
 die() { echo "micro_ab: error: $*" >&2; exit 2; }
-[ $# -ge 4 ] || die "usage: $0 A_BINARY B_BINARY ROUNDS FILTER [FILTER...]"
+noise=0
+if [ "${1:-}" = --noise ]; then noise=1; shift; fi
+[ $# -ge 4 ] || die "usage: $0 [--noise] A_BINARY B_BINARY ROUNDS FILTER [FILTER...]"
 a=$1 b=$2 rounds=$3
 shift 3
 for bin in "$a" "$b"; do [ -x "$bin" ] || die "no executable $bin"; done
 case $rounds in '' | *[!0-9]* | 0) die "ROUNDS must be a whole number from 1 (got '$rounds')" ;; esac
 
-echo "# micro_ab: $(date -u +%Y-%m-%dT%H:%M:%SZ), $rounds rounds; command: $0 $a $b $rounds $*"
+echo "# micro_ab: $(date -u +%Y-%m-%dT%H:%M:%SZ), $rounds rounds; command: $0 $([ $noise = 1 ] && echo "--noise ")$a $b $rounds $*"
 # --version names the commit each binary was built from ("+dirty": from a modified tree).
 echo "# A: $a: $("$a" --version 2>&1 | head -1)"
 echo "# B: $b: $("$b" --version 2>&1 | head -1)"
@@ -22,7 +27,9 @@ runs=$(mktemp)
 trap 'rm -f "$runs"' EXIT
 for filter in "$@"; do
   for _ in $(seq "$rounds"); do
-    for side in A B; do
+    sides="A B"
+    [ $noise = 1 ] && sides="A B A2"
+    for side in $sides; do
       bin=$a
       [ "$side" = B ] && bin=$b
       "$bin" --benchmark_filter="$filter" --benchmark_min_time=0.3 2>/dev/null |
@@ -33,12 +40,17 @@ for filter in "$@"; do
   done
 done
 echo "# load after: $(cut -d' ' -f1-3 /proc/loadavg 2>/dev/null || echo unknown)"
-awk '{ key = $2 " " $1; if (!(key in best) || $3 < best[key]) best[key] = $3; names[$2] = 1 }
+awk -v noise=$noise '{ key = $2 " " $1; if (!(key in best) || $3 < best[key]) best[key] = $3; names[$2] = 1 }
+     function cell(v) { return v == "" ? sprintf("%10s", "-") : sprintf("%10.3f", v) }
+     function ratio(x, y) { return (x == "" || y == "") ? sprintf("%7s", "-") : sprintf("%7.3f", x / y) }
      END {
-       printf "%-64s %10s %10s %7s\n", "benchmark (fastest wall time, ms)", "A", "B", "B/A"
+       printf "%-64s %10s %10s %7s", "benchmark (fastest wall time, ms)", "A", "B", "B/A"
+       if (noise) printf " %10s %7s", "A2", "A2/A"
+       printf "\n"
        for (n in names) {
-         a = best[n " A"]; b = best[n " B"]
-         if (a == "" || b == "") printf "%-64s %10s %10s %7s\n", n, (a == "" ? "-" : a), (b == "" ? "-" : b), "-"
-         else printf "%-64s %10.3f %10.3f %7.3f\n", n, a, b, b / a
+         a = best[n " A"]; b = best[n " B"]; a2 = best[n " A2"]
+         printf "%-64s %s %s %s", n, cell(a), cell(b), ratio(b, a)
+         if (noise) printf " %s %s", cell(a2), ratio(a2, a)
+         printf "\n"
        }
      }' "$runs" | { read -r header; echo "$header"; sort; }

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """scripts/micro_ab.sh: one micro_nns as both A and B on two cheap benchmarks gives one row each, with both
-times and their ratio, and the header names the binaries and the load; bad arguments exit 2 with one line.
+times and their ratio, and the header names the binaries and the load; with --noise each row also has A's second
+run and A2/A; bad arguments exit 2 with one line.
 
 Usage: test_micro_ab.py MICRO_AB_SH MICRO_NNS. Never a timing: the ratio is only checked to be a number."""
 import re
@@ -26,7 +27,17 @@ def main(script, micro_nns):
     for name, a, b, ratio in rows:
         if not (float(a) > 0 and float(b) > 0 and abs(float(ratio) - float(b) / float(a)) < 0.002):
             failures.append(f"{name}: A {a}, B {b}, B/A {ratio} do not add up")
-    for bad in ([micro_nns], [micro_nns, micro_nns, "0", FILTER], [micro_nns, "/no/such/binary", "1", FILTER],
+    proc = subprocess.run([script, "--noise", micro_nns, micro_nns, "1", FILTER], capture_output=True, text=True,
+                          timeout=280)
+    if proc.returncode != 0 or "command: " + script + " --noise " not in proc.stdout:
+        failures.append(f"--noise: exit {proc.returncode}, or the command line lacks it:\n{proc.stdout}{proc.stderr[-500:]}")
+    rows = re.findall(r"^(\S+) +([0-9.]+) +([0-9.]+) +([0-9.]+) +([0-9.]+) +([0-9.]+)$", proc.stdout, re.M)
+    if sorted(r[0] for r in rows) != ["Build/fig3/ours_kdtree", "Ranged1NN/fig3/ours_kdtree/0.10"]:
+        failures.append(f"--noise: rows {rows}, expected one of six columns per benchmark:\n{proc.stdout}")
+    for name, a, b, ratio, a2, noise in rows:
+        if not (float(a2) > 0 and abs(float(noise) - float(a2) / float(a)) < 0.002):
+            failures.append(f"--noise {name}: A {a}, A2 {a2}, A2/A {noise} do not add up")
+    for bad in ([micro_nns], ["--noise", micro_nns], [micro_nns, micro_nns, "0", FILTER], [micro_nns, "/no/such/binary", "1", FILTER],
                 [micro_nns, micro_nns, "two", FILTER]):
         p = subprocess.run([script] + bad, capture_output=True, text=True, timeout=60)
         if p.returncode != 2 or len(p.stderr.strip().splitlines()) != 1 or "micro_ab: error:" not in p.stderr:
