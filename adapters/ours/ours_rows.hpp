@@ -105,8 +105,10 @@ struct MortonScratch {
     return all;
   }
 
+  /// Frees a large batch's memory (a helper thread holds only its share's sort buffer).
   void release_if_large() {
-    if (order.keys.size() > (std::size_t(1) << 20)) *this = MortonScratch{};
+    constexpr std::size_t kLarge = std::size_t(1) << 20;
+    if (order.keys.size() > kLarge || order.scratch.size() > kLarge) *this = MortonScratch{};
   }
 };
 
@@ -148,7 +150,7 @@ inline void morton_order_on_team(const Cloud& queries, const Team& team, std::ve
     scratch->share_runs[static_cast<std::size_t>(team.member())] = {sorted, sorted + count};
   });
   team.phase([&] { ours::merge_key_runs(scratch->share_runs, mine.first, mine.second, order.data()); });
-  if (team.member() == 0 && scratch != nullptr) scratch->release_if_large();
+  morton_scratch().release_if_large();  // each member its own; member 0's is the published one
 }
 
 /// The order a batch is answered in (the adapters' "order" parameter): "caller" (as given), "morton"
