@@ -577,7 +577,7 @@ TEST(OursScan, EveryVectorPathComputesDistancesAsSqDistM2) {
   }
 }
 
-// Small batches sort in three passes, large ones in two wider passes: the same curve either way.
+// Small and large batches: the same curve, each sorted in three passes.
 TEST(QueryOrder, MortonOrderIsAPermutationAlongTheCurve) {
   for (const std::uint32_t n : {3000u, 40000u}) {
     const Cloud queries = queries_for(sphere(5000), 2.0, n);
