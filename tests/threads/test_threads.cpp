@@ -233,8 +233,8 @@ TEST(Team, SharesCoverEveryItemOnce) {
 }
 
 // The Morton order a team finds (each member the box and keys of its share) is the one ours::morton_order
-// finds alone, each member sorting its share and merging its part: both radix widths (shares under and
-// over 2^15), and repeated points, whose equal codes in every share keep the caller's order.
+// finds alone, each member sorting its share and merging its part: shares small and large (under and
+// over 2^15 keys), and repeated points, whose equal codes in every share keep the caller's order.
 TEST(Team, MortonOrderOnATeamIsTheSerialOne) {
   for (const Eigen::Index n : {Eigen::Index(300), Eigen::Index(5000), Eigen::Index(40000), Eigen::Index(70000)}) {
     const Cloud scattered = cube_points(n, 9);
