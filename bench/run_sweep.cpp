@@ -92,8 +92,9 @@ void add_flags(CLI::App& app, Flags& flags) {
                  "ranged search with each adapter's default strategy ('default') or every one it offers ('all')");
   app.add_option("--repetitions", flags.repetitions, "timed calls per cell at most (each is a record)");
   app.add_option("--rounds", flags.rounds,
-                 "passes over the whole plan, each timing every cell that ran again (--repetitions calls a pass), "
-                 "so that a cell's calls lie apart in time (default 1)");
+                 "passes over each model's units, each timing every cell that ran again (--repetitions calls a "
+                 "pass), so that a cell's calls lie apart in time; a model's passes end before the next model's "
+                 "(default 1)");
   app.add_option("--min-time", flags.min_time_s,
                  "repeat a cell until its calls took this many seconds in total, up to --repetitions (0: always all)");
   app.add_option("--threads", flags.threads,

@@ -75,14 +75,16 @@ adapters_but() {
   "$bench/nns_query" --list | cut -f1 | grep -vxF -f <(printf '%s\n' "$@") | paste -sd,
 }
 
-# The command of STEP into the array cmd; the paper grid at 3 repetitions and a 0.5 s budget (as written,
-# with up to 100 repetitions and a 10 s budget, it takes days here), libspatialindex in a file of its own.
-# micro_nns's repetitions are interleaved at random across all its benchmarks, so that a slow spell of the
-# machine falls on both sides of a ratio rather than on one benchmark's repetitions in a row.
+# The command of STEP into the array cmd; the paper grid at a 0.5 s budget (as written, with up to 100
+# repetitions and a 10 s budget, it takes days here), libspatialindex in a file of its own. The sweeps time
+# each cell in 3 rounds of one call, not 3 calls back to back, and micro_nns's repetitions are interleaved at
+# random across all its benchmarks, so that a slow spell of the machine falls on both sides of a ratio rather
+# than on one cell's calls in a row.
 command_of() {
   local o
   o=$out/$(output_of "$1")
-  local grid=(--experiment paper --datasets "$(grid_datasets)" --strategies default --repetitions 3 --budget 0.5)
+  local grid=(--experiment paper --datasets "$(grid_datasets)" --strategies default --repetitions 1 --rounds 3
+              --budget 0.5)
   case $1 in
     micro_nns) cmd=("$bench/micro_nns" --benchmark_repetitions=7 --benchmark_min_time=0.2
                     --benchmark_enable_random_interleaving=true "--benchmark_out=$o" --benchmark_out_format=json) ;;
@@ -100,7 +102,8 @@ command_of() {
                      "$(adapters_but brute_force spatialindex_quadratic spatialindex_rstar)" --out "$o") ;;
     paper_grid_spatialindex)
       cmd=("$bench/run_sweep" "${grid[@]}" --adapters "spatialindex_quadratic,spatialindex_rstar" --out "$o") ;;
-    real) cmd=("$bench/run_sweep" --experiment real --strategies default --repetitions 3 --budget 1 --out "$o") ;;
+    real) cmd=("$bench/run_sweep" --experiment real --strategies default --repetitions 1 --rounds 3 --budget 1
+               --out "$o") ;;
   esac
   if [ -f "$o" ] && [[ ! " micro_nns registry checks real_pairs " =~ " $1 " ]]; then cmd+=(--resume); fi
 }

@@ -434,7 +434,8 @@ def check_rounds(path, rounds, repetitions, build_repetitions):
 
 
 def case_rounds():
-    """--rounds N: N passes over the plan, each cell's calls of every pass in its one record; resumable."""
+    """--rounds N: N passes over each model's units, each cell's calls of every pass in its one record;
+    resumable."""
     work = fresh_workdir()
     common = ["--points", "300", "--dists", "0:0.3:0.1", "--repetitions", "1", "--adapters",
               "brute_force,nanoflann_kdtree", "--datasets", "hollow_sphere:hollow_cube", "--strategies", "default"]
@@ -465,6 +466,20 @@ def case_rounds():
     resumed = check_rounds(killed, 3, 1, 3)
     check(sorted(r["name"] for r in resumed["benchmarks"]) == sorted(r["name"] for r in load(whole)["benchmarks"]),
           "the resumed run's cells differ from the whole run's")
+    # a model's rounds all run before the next model's: killed just after the first model's third round,
+    # the first model's cells have all three and the second's none beyond its first
+    two_models = common[:common.index("--datasets")] + [
+        "--datasets", "hollow_sphere:hollow_cube,hollow_cube:hollow_sphere", "--strategies", "default", "--rounds", "3"]
+    model_of = lambda name: name.split("/")[1]
+    first_model = [r for r in load(whole)["benchmarks"] if model_of(r["name"]) == "hollow_sphere"]
+    cut = work / "cut.json"
+    proc = run(two_models + ["--out", str(cut)], env={"NNB_SWEEP_ABORT_AFTER_CELLS": str(3 * len(first_model) + 1)},
+               expect=None)
+    check(proc.returncode == -9, f"the fault-injected run was not killed (exit {proc.returncode})")
+    cells = load(cut)["benchmarks"]
+    rounds_of = lambda model: sorted({str(r.get("rounds")) for r in cells if model_of(r["name"]) == model})
+    check(rounds_of("hollow_sphere") == ["3"], f"the first model's cells ended with rounds {rounds_of('hollow_sphere')}")
+    check(rounds_of("hollow_cube") in ([], ["None"]), f"the second model's cells have rounds {rounds_of('hollow_cube')}")
 
 
 def case_quick_tiny():

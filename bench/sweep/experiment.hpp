@@ -45,8 +45,8 @@ struct Experiment {
   DistRange dists;
   int repetitions = 3;  ///< timed calls per cell at most; each is its own record
   int build_repetitions = 3;
-  /// Passes over the whole plan: each pass after the first times every cell that ran (and each build)
-  /// again, so that a cell's repetitions lie minutes apart rather than back to back.
+  /// Passes over each model's units, one model after another: each pass after the first times every cell
+  /// that ran (and each build) again, so that a cell's repetitions lie minutes apart rather than back to back.
   int rounds = 1;
   double budget_s = 2.0;                      ///< per cell, per repetition
   double min_time_s = 0.0;  ///< repeat a cell until its calls took this long in total (0: every repetition)

@@ -407,7 +407,7 @@ void run_unit_isolated(const Unit& unit, SweepState& s, ResultsSink& sink) {
   s.progress.advance(batch.size());
 }
 
-// Rounds after the first: each cell that ran is timed again in a later pass over the whole plan, and its
+// Rounds after the first: each cell that ran is timed again in a later pass over its model's units, and its
 // calls join the cell's record; the answers must be those of the first round.
 
 // Whether the cell takes part in this round: it ran, and has fewer rounds than this one.
@@ -498,6 +498,31 @@ void run_unit_round_isolated(const Unit& unit, int round, SweepState& s, Results
   }
 }
 
+// The unit's first round: gated (over the memory limit or closed by a smaller model: the build and all its
+// cells recorded skipped) or run in a child process.
+void run_first_round(const PlanUnit& planned, SweepState& s, ResultsSink& sink) {
+  if (to_do(planned, sink) == 0) return;
+  const Unit unit = unit_of(planned, s.data);
+  if (const std::string gated = s.gate.reason_to_skip(unit.adapter.name, unit.model_spec, unit.model.points.cols());
+      !gated.empty()) {
+    const auto batch = skipped_records(unit, gated, s.data, [&](const std::string& name) { return sink.has(name); });
+    s.progress.begin(unit.build);
+    sink.add(batch);
+    s.progress.end(batch.size(), "skipped " + std::to_string(batch.size()) + " cells: " + gated);
+    return;
+  }
+  run_unit_isolated(unit, s, sink);
+}
+
+// A later round of the unit: its cells that ran and lack this round timed again.
+void run_later_round(const PlanUnit& planned, int round, SweepState& s, ResultsSink& sink) {
+  // skipped cells count as done in every round, for the progress bar
+  s.progress.advance(count_records(planned, sink, [](const Record* r) { return r && !r->skipped.empty(); }));
+  if (count_records(planned, sink, [&](const Record* r) { return due_in_round(r, round); }) > 0) {
+    run_unit_round_isolated(unit_of(planned, s.data), round, s, sink);
+  }
+}
+
 }  // namespace
 
 std::size_t run_experiment(const Experiment& e, const LoadedData& data, const SweepPlan& plan,
@@ -510,31 +535,22 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const Sw
     gate.observe(r);
   }
   SweepState state{e, data, agreement, gate, progress, 0};
+  std::vector<const PlanUnit*> model_units;
+  // A model's rounds run before the next model's, so that a cell's rounds lie minutes apart, not a whole
+  // plan apart: a run cut into sittings (or resumed on another machine) keeps each cell's calls in one.
+  auto run_model = [&] {
+    for (const PlanUnit* planned : model_units) run_first_round(*planned, state, sink);
+    for (int round = 2; round <= e.rounds; ++round) {
+      for (const PlanUnit* planned : model_units) run_later_round(*planned, round, state, sink);
+    }
+    model_units.clear();
+  };
   for (const auto& planned : plan.units()) {
     if (in_shard && !in_shard(planned.model, planned.adapter->name)) continue;
-    if (to_do(planned, sink) == 0) continue;
-    const Unit unit = unit_of(planned, data);
-    // Over the memory limit or closed by a smaller model: the build and all its cells are recorded skipped.
-    if (const std::string gated = gate.reason_to_skip(unit.adapter.name, unit.model_spec, unit.model.points.cols());
-        !gated.empty()) {
-      const auto batch = skipped_records(unit, gated, data, [&](const std::string& name) { return sink.has(name); });
-      progress.begin(unit.build);
-      sink.add(batch);
-      progress.end(batch.size(), "skipped " + std::to_string(batch.size()) + " cells: " + gated);
-      continue;
-    }
-    run_unit_isolated(unit, state, sink);
+    if (!model_units.empty() && model_units.front()->model != planned.model) run_model();
+    model_units.push_back(&planned);
   }
-  for (int round = 2; round <= e.rounds; ++round) {
-    for (const auto& planned : plan.units()) {
-      if (in_shard && !in_shard(planned.model, planned.adapter->name)) continue;
-      // skipped cells count as done in every round, for the progress bar
-      progress.advance(count_records(planned, sink, [](const Record* r) { return r && !r->skipped.empty(); }));
-      if (count_records(planned, sink, [&](const Record* r) { return due_in_round(r, round); }) > 0) {
-        run_unit_round_isolated(unit_of(planned, data), round, state, sink);
-      }
-    }
-  }
+  run_model();
   return state.disagreements;
 }
 
