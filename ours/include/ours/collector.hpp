@@ -20,14 +20,17 @@
 #include <type_traits>
 #include <vector>
 
-#if defined(__SSE2__)
+// The x86 vector paths (SSE2 at compile time, AVX2 chosen at run time); every other CPU takes the plain
+// C++ beside them, which -DOURS_PORTABLE selects on x86 too, so that a test can check it here.
+#if defined(OURS_SSE2) && !defined(OURS_PORTABLE)
 #include <emmintrin.h>
+#define OURS_SSE2 1
 #endif
 #if defined(__linux__)
 #include <sys/mman.h>
 #include <unistd.h>
 #endif
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__)) && !defined(OURS_PORTABLE)
 #include <immintrin.h>
 #define OURS_WIDE_SIMD 1
 #endif
@@ -215,7 +218,7 @@ inline T block_sq_dists_portable(const T* xs, const T* ys, const T* zs, std::uin
                                  T* __restrict sq) {
   T best = std::numeric_limits<T>::infinity();
   std::uint32_t i = 0;
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
   if constexpr (std::is_same_v<T, double>) {
     // One pass: distances, stored, and their running minimum, two points at a time.
     const __m128d qx = _mm_set1_pd(q[0]), qy = _mm_set1_pd(q[1]), qz = _mm_set1_pd(q[2]);
@@ -271,7 +274,7 @@ inline T block_sq_dists(const T* xs, const T* ys, const T* zs, std::uint32_t m, 
 template <typename T>
 inline std::uint32_t find_first(const T* sq, std::uint32_t m, T value) {
   std::uint32_t i = 0;
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
   if constexpr (std::is_same_v<T, double>) {
     const __m128d v = _mm_set1_pd(value);
     for (; i + 4 <= m; i += 4) {
@@ -354,7 +357,7 @@ inline T bound_shrink(int steps) {
 /// Returns a 4-bit mask of which of sq[0, 4) are <= bound (a NaN is not).
 template <typename T>
 inline unsigned at_most_mask(const T* sq, T bound) {
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
   if constexpr (std::is_same_v<T, double>) {
     const __m128d b = _mm_set1_pd(bound);
     return static_cast<unsigned>(_mm_movemask_pd(_mm_cmple_pd(_mm_loadu_pd(sq), b)) |
@@ -374,7 +377,7 @@ template <typename T>
 inline T min_of_numbers(const T* v, std::uint32_t m) {
   T low = std::numeric_limits<T>::infinity();
   std::uint32_t i = 0;
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
   if constexpr (std::is_same_v<T, double>) {
     // minpd returns its second operand when the first is NaN: the running minimum goes second.
     __m128d a = _mm_set1_pd(low), b = a;

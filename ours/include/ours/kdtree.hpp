@@ -315,7 +315,7 @@ class KdTree {
     const T* c = points_.data() + dim * n_;
     min = max = c[begin];
     std::uint32_t i = begin + 1;
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
     if constexpr (std::is_same_v<T, double>) {
       if (end - i >= 8) {
         __m128d lo[4], hi[4];
@@ -349,7 +349,7 @@ class KdTree {
   bool any_on_plane(unsigned dim, std::uint32_t begin, std::uint32_t end, T split_at) const {
     const T* c = points_.data() + dim * n_;
     std::uint32_t i = begin;
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
     if constexpr (std::is_same_v<T, double>) {
       const __m128d s = _mm_set1_pd(split_at);
       for (; i + 8 <= end; i += 8) {
@@ -486,7 +486,7 @@ class KdTree {
 
   // Bit j: whether c[j] is not below split_at (j < 8).
   static unsigned not_below_mask(const T* c, T split_at) {
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
     if constexpr (std::is_same_v<T, double>) {
       const __m128d s = _mm_set1_pd(split_at);
       unsigned mask = 0;
@@ -506,7 +506,7 @@ class KdTree {
 
   // Bit j: whether c[-j] is below split_at (j < 8: reading down from c).
   static unsigned below_mask_downward(const T* c, T split_at) {
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
     if constexpr (std::is_same_v<T, double>) {
       const __m128d s = _mm_set1_pd(split_at);
       unsigned mask = 0;

@@ -13,10 +13,6 @@
 #include <utility>
 #include <vector>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 namespace ours {
 
 namespace detail {
@@ -51,7 +47,7 @@ namespace detail {
 /// The cell of coordinate x on a grid of 1024 cells from lo with scale cells a metre, clamped to the grid
 /// (also for NaN and for spans that overflow, whose scale is 0).
 inline std::uint32_t grid_cell(double x, double lo, double scale) {
-#if defined(__SSE2__)
+#if defined(OURS_SSE2)
   // Branch-free: maxsd returns its second operand when either is NaN.
   __m128d t = _mm_mul_sd(_mm_sub_sd(_mm_set_sd(x), _mm_set_sd(lo)), _mm_set_sd(scale));
   t = _mm_min_sd(_mm_max_sd(t, _mm_setzero_pd()), _mm_set_sd(1023.0));
