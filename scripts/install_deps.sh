@@ -11,7 +11,7 @@ PACKAGES=(
   libvtk9-dev libboost-dev libembree-dev libkdtree++-dev libcneartree-dev libfaiss-dev
   pybind11-dev python3-dev python3-scipy python3-pykdtree python3-sklearn
   python3 python3-matplotlib python3-numpy python3-plotly chromium
-  slurm-wlm munge procps
+  slurm-wlm munge procps valgrind
 )
 
 missing=()

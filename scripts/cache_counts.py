@@ -1,0 +1,148 @@
+#!/usr/bin/env python3
+"""Instructions and simulated cache misses a query, per library: each adapter answers one ranged 1-NN batch in
+nns_query under Valgrind's callgrind, which counts only inside the search call (not loading, building or
+writing rows) and simulates one cache geometry for every library and machine. The counts are the same on every
+run, so they stand where this machine kind's timings are too noisy, and they put numbers on the paper's cache
+argument where the machine exposes no hardware counters. A simulation, not the CPU: no prefetchers, one
+cache level below L1.
+
+  scripts/cache_counts.py [--adapters A,B] [--pairs MODEL:QUERY|PAIR,...] [--max-dist M] [--points N]
+                          [--nns-query PATH] --out FILE
+"""
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from datetime import datetime, timezone
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent.parent
+# The paper's libraries that nns_query can run natively, ours, and 3DTK's pointer-based tree beside them.
+DEFAULT_ADAPTERS = ["ours_kdtree", "ours_octree", "nanoflann_kdtree", "nanoflann_latest", "flann_kdtree",
+                    "ann_kdtree", "simple_kdtree"]
+DEFAULT_PAIRS = ["hollow_cube:hollow_sphere", "office-sick-3dtk", "office-kinect-pcl"]
+# L1: 32 KiB, 8-way; the last level: 2 MiB, 16-way (a core's L2 on this machine kind's CPUs); 64-byte lines.
+CACHES = {"I1": "32768,8,64", "D1": "32768,8,64", "LL": "2097152,16,64"}
+COLUMNS = ["pair", "adapter", "max_dist_m", "queries", "found", "instructions", "data_reads", "data_writes",
+           "d1_misses", "ll_misses"]
+
+
+def die(message):
+    print(f"cache_counts: error: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def parse_args():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--adapters", default=",".join(DEFAULT_ADAPTERS), help="comma-separated adapters")
+    p.add_argument("--pairs", default=",".join(DEFAULT_PAIRS),
+                   help="comma-separated MODEL:QUERY (shapes or files) or real pair names")
+    p.add_argument("--max-dist", type=float, default=0.1, help="maximal distance, metres")
+    p.add_argument("--points", type=int, help="points per synthetic set (nns_query's default otherwise)")
+    p.add_argument("--nns-query", default=str(HERE / "build/release/bench/nns_query"), help="the binary to count")
+    p.add_argument("--out", required=True, help="results file (TSV with a commented header), written atomically")
+    args = p.parse_args()
+    if not args.max_dist > 0:
+        die(f"--max-dist must be above 0 (got {args.max_dist})")
+    if args.points is not None and args.points < 1:
+        die(f"--points must be at least 1 (got {args.points})")
+    if not (os.path.isfile(args.nns_query) and os.access(args.nns_query, os.X_OK)):
+        die(f"no executable nns_query at {args.nns_query} (build the release preset, or give --nns-query)")
+    if shutil.which("valgrind") is None:
+        die("valgrind is not installed (scripts/install_deps.sh installs it)")
+    return args
+
+
+def known_adapters(nns_query):
+    listing = subprocess.run([nns_query, "--list"], capture_output=True, text=True, check=True).stdout
+    return [line.split("\t")[0] for line in listing.splitlines() if line.strip()]
+
+
+def model_and_query(pair):
+    model, _, query = pair.partition(":")
+    return model, query or model
+
+
+def totals(callgrind_out):
+    """The events callgrind counted, by name."""
+    events = values = None
+    for line in Path(callgrind_out).read_text().splitlines():
+        if line.startswith("events:"):
+            events = line.split()[1:]
+        elif line.startswith("totals:"):
+            values = [int(v) for v in line.split()[1:]]
+    if events is None or values is None:
+        raise RuntimeError(f"no totals in {callgrind_out}")
+    return dict(zip(events, values + [0] * (len(events) - len(values))))
+
+
+def count(args, pair, adapter, work):
+    """One adapter's batch on one pair: the row of COLUMNS (counts a query)."""
+    model, query = model_and_query(pair)
+    cg_out, stats = work / "callgrind.out", work / "stats.json"
+    cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", f"--callgrind-out-file={cg_out}",
+           "--toggle-collect=nnb::SearchIndex::ranged*"] + [f"--{level}={geometry}" for level, geometry in CACHES.items()]
+    cmd += [args.nns_query, "--model", model, "--query", query, "--adapter", adapter, "--search", "ranged",
+            "--k", "1", "--max-dist", repr(args.max_dist), "--out", str(work / "rows.csv"), "--stats", str(stats)]
+    if args.points is not None:
+        cmd += ["--points", str(args.points)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        last = [line for line in proc.stderr.splitlines() if not line.startswith("==")][-1:] or ["no message"]
+        raise RuntimeError(f"{adapter} on {pair} exited {proc.returncode}: {last[0]}")
+    s = json.loads(stats.read_text())
+    t = totals(cg_out)
+    n = s["query_points"]
+    if t.get("Ir", 0) == 0:
+        raise RuntimeError(f"{adapter} on {pair}: nothing counted inside the search call")
+    per_query = lambda v: f"{v / n:.1f}"
+    return [pair, adapter, repr(args.max_dist), str(n), str(s["found"]), per_query(t["Ir"]), per_query(t["Dr"]),
+            per_query(t["Dw"]), per_query(t["D1mr"] + t["D1mw"]), per_query(t["DLmr"] + t["DLmw"])]
+
+
+def header(args):
+    version = subprocess.run([args.nns_query, "--version"], capture_output=True, text=True).stdout.strip()
+    valgrind = subprocess.run(["valgrind", "--version"], capture_output=True, text=True).stdout.strip()
+    return [f"# cache_counts: {datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')}; command: "
+            + " ".join([sys.argv[0]] + sys.argv[1:]),
+            f"# binary: {args.nns_query}: {version}; {valgrind} (callgrind, --cache-sim=yes)",
+            "# simulated caches: " + ", ".join(f"{k} {v} (bytes,ways,line)" for k, v in CACHES.items()),
+            "# counted inside SearchIndex::ranged only (the batch, not loading or building); one thread; ranged 1-NN,"
+            " each adapter's default strategy; every count is a query's (instructions executed, data reads and"
+            " writes, D1 and LL misses, reads and writes)"]
+
+
+def main():
+    args = parse_args()
+    adapters = [a for a in args.adapters.split(",") if a]
+    pairs = [p for p in args.pairs.split(",") if p]
+    if not adapters or not pairs:
+        die("give at least one adapter and one pair")
+    known = known_adapters(args.nns_query)
+    for a in adapters:
+        if a not in known:
+            die(f"unknown adapter '{a}' (nns_query --list shows those built in)")
+    out = Path(args.out)
+    if not out.parent.is_dir():
+        die(f"no folder {out.parent} for --out")
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="cache_counts_") as tmp:
+        for pair in pairs:
+            for adapter in adapters:
+                try:
+                    rows.append(count(args, pair, adapter, Path(tmp)))
+                except RuntimeError as e:
+                    die(str(e))
+                print(f"cache_counts: {pair} {adapter}: {rows[-1][5]} instructions, {rows[-1][8]} D1 misses,"
+                      f" {rows[-1][9]} LL misses a query", file=sys.stderr)
+    text = "\n".join(header(args) + ["\t".join(COLUMNS)] + ["\t".join(r) for r in rows]) + "\n"
+    partial = out.with_name(out.name + ".partial")
+    partial.write_text(text)
+    os.replace(partial, out)
+
+
+if __name__ == "__main__":
+    main()

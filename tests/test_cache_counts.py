@@ -1,0 +1,58 @@
+#!/usr/bin/env python3
+"""scripts/cache_counts.py: brute force and ours_kdtree on a 2,000-point pair give a row each of counts a query;
+brute force executes far more instructions a query than the tree, and its scan streams 48 KB of points through
+the simulated 32 KiB L1, so it misses at least (48,000 - 32,768) / 64 lines a query; the counts are the same in
+a second run; bad arguments exit 2 with one line and write no file.
+
+Usage: test_cache_counts.py CACHE_COUNTS_PY NNS_QUERY WORK_DIR. Counts from Valgrind's simulation, never a
+timing, so nothing here depends on the machine."""
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+
+def run(script, args, expect):
+    proc = subprocess.run(["/usr/bin/python3", script] + args, capture_output=True, text=True, timeout=280)
+    if proc.returncode != expect:
+        raise AssertionError(f"{' '.join(args)}: exit {proc.returncode}, expected {expect}\n{proc.stderr[-800:]}")
+    return proc
+
+
+def rows_of(path):
+    lines = [line for line in Path(path).read_text().splitlines() if not line.startswith("#")]
+    columns = lines[0].split("\t")
+    return [dict(zip(columns, line.split("\t"))) for line in lines[1:]]
+
+
+def main(script, nns_query, work):
+    work = Path(work)
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    common = ["--pairs", "hollow_cube:hollow_sphere", "--points", "2000", "--nns-query", nns_query]
+    out = work / "counts.tsv"
+    run(script, common + ["--adapters", "brute_force,ours_kdtree", "--out", str(out)], 0)
+    text = out.read_text()
+    for needle in ("# cache_counts: ", "# binary: ", "# simulated caches: I1 32768,8,64", "LL 2097152,16,64"):
+        assert needle in text, f"no '{needle}' in the header:\n{text}"
+    rows = {r["adapter"]: r for r in rows_of(out)}
+    assert sorted(rows) == ["brute_force", "ours_kdtree"], f"rows {sorted(rows)}"
+    brute, tree = rows["brute_force"], rows["ours_kdtree"]
+    assert brute["queries"] == tree["queries"] == "2000" and brute["found"] == tree["found"], f"{brute} {tree}"
+    assert float(brute["instructions"]) > 10 * float(tree["instructions"]) > 0, f"{brute} {tree}"
+    assert float(brute["d1_misses"]) >= (48000 - 32768) / 64, f"brute force's scan missed too little: {brute}"
+    again = work / "again.tsv"
+    run(script, common + ["--adapters", "ours_kdtree", "--out", str(again)], 0)
+    assert rows_of(again)[0] == tree, f"a second run counted otherwise: {rows_of(again)[0]} against {tree}"
+    bad = work / "bad.tsv"
+    for args in (["--adapters", "no_such_adapter"], ["--pairs", "no_such_shape"], ["--max-dist", "0"],
+                 ["--nns-query", "/no/such/binary"], ["--points", "0"]):
+        proc = run(script, common + ["--adapters", "ours_kdtree"] + args + ["--out", str(bad)], 2)
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("cache_counts: error: "), f"{args}: {proc.stderr}"
+        assert not bad.exists(), f"{args} left {bad}"
+    print("ok")
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:])
