@@ -2,7 +2,7 @@
 """scripts/cache_counts.py: brute force and ours_kdtree on a 2,000-point pair give a row each of counts a query;
 brute force executes far more instructions a query than the tree, and its scan streams 48 KB of points through
 the simulated 32 KiB L1, so it misses at least (48,000 - 32,768) / 64 lines a query; the counts are the same in
-a second run; bad arguments exit 2 with one line and write no file.
+a second run; --resume counts only the rows missing; bad arguments exit 2 with one line and write no file.
 
 Usage: test_cache_counts.py CACHE_COUNTS_PY NNS_QUERY WORK_DIR. Counts from Valgrind's simulation, never a
 timing, so nothing here depends on the machine."""
@@ -44,6 +44,19 @@ def main(script, nns_query, work):
     again = work / "again.tsv"
     run(script, common + ["--adapters", "ours_kdtree", "--out", str(again)], 0)
     assert rows_of(again)[0] == tree, f"a second run counted otherwise: {rows_of(again)[0]} against {tree}"
+    # --resume keeps the rows there and counts only the others; other settings are refused
+    resumed = work / "resumed.tsv"
+    resumed.write_text(text)
+    proc = run(script, common + ["--adapters", "brute_force,ours_kdtree,ours_octree", "--resume", "--out",
+                                 str(resumed)], 0)
+    counted = [line for line in proc.stderr.splitlines() if line.startswith("cache_counts: hollow_cube")]
+    assert len(counted) == 1 and " ours_octree: " in counted[0], f"--resume counted {counted}"
+    assert [r["adapter"] for r in rows_of(resumed)] == ["brute_force", "ours_kdtree", "ours_octree"]
+    assert rows_of(resumed)[:2] == rows_of(out), "--resume changed the rows it kept"
+    before = resumed.read_text()
+    proc = run(script, common + ["--adapters", "ours_kdtree", "--max-dist", "0.2", "--resume", "--out",
+                                 str(resumed)], 2)
+    assert "other settings" in proc.stderr and resumed.read_text() == before, proc.stderr
     bad = work / "bad.tsv"
     for args in (["--adapters", "no_such_adapter"], ["--pairs", "no_such_shape"], ["--max-dist", "0"],
                  ["--nns-query", "/no/such/binary"], ["--points", "0"]):
