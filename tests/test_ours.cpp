@@ -10,6 +10,11 @@
 
 #include <gtest/gtest.h>
 
+// The x86 build must take the SSE2 paths (test_ours_portable checks the others).
+#if defined(__SSE2__) && !defined(OURS_SSE2)
+#error "ours/ built without its SSE2 paths on an SSE2 CPU"
+#endif
+
 #include <algorithm>
 #include <array>
 #include <cmath>

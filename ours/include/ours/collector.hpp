@@ -22,7 +22,7 @@
 
 // The x86 vector paths (SSE2 at compile time, AVX2 chosen at run time); every other CPU takes the plain
 // C++ beside them, which -DOURS_PORTABLE selects on x86 too, so that a test can check it here.
-#if defined(OURS_SSE2) && !defined(OURS_PORTABLE)
+#if defined(__SSE2__) && !defined(OURS_PORTABLE)
 #include <emmintrin.h>
 #define OURS_SSE2 1
 #endif
