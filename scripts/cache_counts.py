@@ -6,8 +6,11 @@ run, so they stand where this machine kind's timings are too noisy, and they put
 argument where the machine exposes no hardware counters. A simulation, not the CPU: no prefetchers, one
 cache level below L1.
 
-  scripts/cache_counts.py [--adapters A,B] [--pairs MODEL:QUERY|PAIR,...] [--max-dist M] [--points N]
-                          [--nns-query PATH] [--resume] --out FILE
+  scripts/cache_counts.py [--adapters A,B[NAME=VALUE,...]] [--pairs MODEL:QUERY|PAIR,...] [--max-dist M]
+                          [--points N] [--nns-query PATH] [--resume] --out FILE
+
+An adapter may carry parameters as micro_nns labels them, ours_kdtree[order=caller,bucket_size=8]: each is
+passed to nns_query as --param, and the label names the row, so variants of one library sit side by side.
 
 The file is rewritten atomically after every row, so a killed run loses at most the row in flight; --resume
 keeps the rows of a file made by the same binary with the same settings and counts only the others.
@@ -15,6 +18,7 @@ keeps the rows of a file made by the same binary with the same settings and coun
 import argparse
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -41,7 +45,8 @@ def die(message):
 
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--adapters", default=",".join(DEFAULT_ADAPTERS), help="comma-separated adapters")
+    p.add_argument("--adapters", default=",".join(DEFAULT_ADAPTERS),
+                   help="comma-separated adapters, each NAME or NAME[PARAM=VALUE,...]")
     p.add_argument("--pairs", default=",".join(DEFAULT_PAIRS),
                    help="comma-separated MODEL:QUERY (shapes or files) or real pair names")
     p.add_argument("--max-dist", type=float, default=0.1, help="maximal distance, metres")
@@ -66,6 +71,33 @@ def known_adapters(nns_query):
     return [line.split("\t")[0] for line in listing.splitlines() if line.strip()]
 
 
+def split_labels(text):
+    """The comma-separated adapter labels of text; commas inside a label's brackets separate its parameters."""
+    labels, depth, start = [], 0, 0
+    for i, c in enumerate(text + ","):
+        depth += {"[": 1, "]": -1}.get(c, 0)
+        if c == "," and depth == 0:
+            labels.append(text[start:i].strip())
+            start = i + 1
+    if depth != 0:
+        die(f"unbalanced brackets in --adapters '{text}'")
+    return [label for label in labels if label]
+
+
+def adapter_and_params(label):
+    """The adapter a label names and its parameters (NAME=VALUE each), for nns_query's --param."""
+    m = re.fullmatch(r"([A-Za-z0-9_]+)(?:\[([^\[\]]*)\])?", label)
+    if m is None:
+        die(f"adapter '{label}' is not NAME or NAME[PARAM=VALUE,...]")
+    params = [p.strip() for p in (m.group(2) or "").split(",") if p.strip()]
+    for param in params:
+        if not re.fullmatch(r"[A-Za-z0-9_]+=\S+", param):
+            die(f"parameter '{param}' of '{label}' is not NAME=VALUE")
+    if m.group(2) is not None and not params:
+        die(f"adapter '{label}' has empty brackets")
+    return m.group(1), params
+
+
 def model_and_query(pair):
     model, _, query = pair.partition(":")
     return model, query or model
@@ -84,27 +116,29 @@ def totals(callgrind_out):
     return dict(zip(events, values + [0] * (len(events) - len(values))))
 
 
-def count(args, pair, adapter, work):
+def count(args, pair, label, work):
     """One adapter's batch on one pair: the row of COLUMNS (counts a query)."""
     model, query = model_and_query(pair)
+    adapter, params = adapter_and_params(label)
     cg_out, stats = work / "callgrind.out", work / "stats.json"
     cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", f"--callgrind-out-file={cg_out}",
            "--toggle-collect=nnb::SearchIndex::ranged*"] + [f"--{level}={geometry}" for level, geometry in CACHES.items()]
     cmd += [args.nns_query, "--model", model, "--query", query, "--adapter", adapter, "--search", "ranged",
             "--k", "1", "--max-dist", repr(args.max_dist), "--out", str(work / "rows.csv"), "--stats", str(stats)]
+    cmd += [arg for param in params for arg in ("--param", param)]
     if args.points is not None:
         cmd += ["--points", str(args.points)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         last = [line for line in proc.stderr.splitlines() if not line.startswith("==")][-1:] or ["no message"]
-        raise RuntimeError(f"{adapter} on {pair} exited {proc.returncode}: {last[0]}")
+        raise RuntimeError(f"{label} on {pair} exited {proc.returncode}: {last[0]}")
     s = json.loads(stats.read_text())
     t = totals(cg_out)
     n = s["query_points"]
     if t.get("Ir", 0) == 0:
-        raise RuntimeError(f"{adapter} on {pair}: nothing counted inside the search call")
+        raise RuntimeError(f"{label} on {pair}: nothing counted inside the search call")
     per_query = lambda v: f"{v / n:.1f}"
-    return [pair, adapter, repr(args.max_dist), str(n), str(s["found"]), per_query(t["Ir"]), per_query(t["Dr"]),
+    return [pair, label, repr(args.max_dist), str(n), str(s["found"]), per_query(t["Ir"]), per_query(t["Dr"]),
             per_query(t["Dw"]), per_query(t["D1mr"] + t["D1mw"]), per_query(t["DLmr"] + t["DLmw"])]
 
 
@@ -140,14 +174,14 @@ def write_atomically(out, lines, rows):
 
 def main():
     args = parse_args()
-    adapters = [a for a in args.adapters.split(",") if a]
+    adapters = split_labels(args.adapters)
     pairs = [p for p in args.pairs.split(",") if p]
     if not adapters or not pairs:
         die("give at least one adapter and one pair")
     known = known_adapters(args.nns_query)
-    for a in adapters:
-        if a not in known:
-            die(f"unknown adapter '{a}' (nns_query --list shows those built in)")
+    for label in adapters:
+        if adapter_and_params(label)[0] not in known:
+            die(f"unknown adapter '{label}' (nns_query --list shows those built in)")
     out = Path(args.out)
     if not out.parent.is_dir():
         die(f"no folder {out.parent} for --out")

@@ -2,7 +2,8 @@
 """scripts/cache_counts.py: brute force and ours_kdtree on a 2,000-point pair give a row each of counts a query;
 brute force executes far more instructions a query than the tree, and its scan streams 48 KB of points through
 the simulated 32 KiB L1, so it misses at least (48,000 - 32,768) / 64 lines a query; the counts are the same in
-a second run; --resume counts only the rows missing; bad arguments exit 2 with one line and write no file.
+a second run; an adapter's parameters (ours_kdtree[bucket_size=1,order=caller]) reach nns_query and label
+the row; --resume counts only the rows missing; bad arguments exit 2 with one line and write no file.
 
 Usage: test_cache_counts.py CACHE_COUNTS_PY NNS_QUERY WORK_DIR. Counts from Valgrind's simulation, never a
 timing, so nothing here depends on the machine."""
@@ -44,6 +45,14 @@ def main(script, nns_query, work):
     again = work / "again.tsv"
     run(script, common + ["--adapters", "ours_kdtree", "--out", str(again)], 0)
     assert rows_of(again)[0] == tree, f"a second run counted otherwise: {rows_of(again)[0]} against {tree}"
+    # parameters in a label reach the search: one-point buckets in the caller's order count otherwise, same answers
+    labelled = work / "labelled.tsv"
+    variant = "ours_kdtree[bucket_size=1,order=caller]"
+    run(script, common + ["--adapters", f"ours_kdtree,{variant}", "--out", str(labelled)], 0)
+    both = {r["adapter"]: r for r in rows_of(labelled)}
+    assert sorted(both) == ["ours_kdtree", variant], f"rows {sorted(both)}"
+    assert both[variant]["found"] == tree["found"], f"{both[variant]} against {tree}"
+    assert both[variant]["instructions"] != tree["instructions"], f"the parameters changed nothing: {both}"
     # --resume keeps the rows there and counts only the others; other settings are refused
     resumed = work / "resumed.tsv"
     resumed.write_text(text)
@@ -59,7 +68,9 @@ def main(script, nns_query, work):
     assert "other settings" in proc.stderr and resumed.read_text() == before, proc.stderr
     bad = work / "bad.tsv"
     for args in (["--adapters", "no_such_adapter"], ["--pairs", "no_such_shape"], ["--max-dist", "0"],
-                 ["--nns-query", "/no/such/binary"], ["--points", "0"]):
+                 ["--nns-query", "/no/such/binary"], ["--points", "0"], ["--adapters", "ours_kdtree[no_such=1]"],
+                 ["--adapters", "ours_kdtree[bucket_size]"], ["--adapters", "ours_kdtree[]"],
+                 ["--adapters", "ours_kdtree[bucket_size=1"]):
         proc = run(script, common + ["--adapters", "ours_kdtree"] + args + ["--out", str(bad)], 2)
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("cache_counts: error: "), f"{args}: {proc.stderr}"
