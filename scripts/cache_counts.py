@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
-"""Instructions and simulated cache misses a query, per library: each adapter answers one ranged 1-NN batch in
-nns_query under Valgrind's callgrind, which counts only inside the search call (not loading, building or
-writing rows) and simulates one cache geometry for every library and machine. The counts are the same on every
+"""Instructions, simulated cache misses and mispredicted branches a query, per library: each adapter answers a
+ranged 1-NN batch in nns_query under Valgrind's callgrind, which counts only inside the search call (not loading,
+building or writing rows) and simulates one cache geometry and one branch predictor for every library and machine.
+The batch counted is the second of two, as micro_nns times a batch (the index, its scratch and the caches as the
+first left them; the second run's counts less the first's); --cold counts the first batch in a fresh process. The counts are the same on every
 run, so they stand where this machine kind's timings are too noisy, and they put numbers on the paper's cache
 argument where the machine exposes no hardware counters. A simulation, not the CPU: no prefetchers, one
-cache level below L1.
+cache level below L1, a simple branch predictor.
 
   scripts/cache_counts.py [--adapters A,B[NAME=VALUE,...]] [--pairs MODEL:QUERY|PAIR,...] [--max-dist M]
-                          [--points N] [--nns-query PATH] [--resume] --out FILE
+                          [--points N] [--cold] [--nns-query PATH] [--resume] --out FILE
 
 An adapter may carry parameters as micro_nns labels them, ours_kdtree[order=caller,bucket_size=8]: each is
 passed to nns_query as --param, and the label names the row, so variants of one library sit side by side.
@@ -35,7 +37,7 @@ DEFAULT_PAIRS = ["hollow_cube:hollow_sphere", "office-sick-3dtk", "office-kinect
 # L1: 32 KiB, 8-way; the last level: 2 MiB, 16-way (a core's L2 on this machine kind's CPUs); 64-byte lines.
 CACHES = {"I1": "32768,8,64", "D1": "32768,8,64", "LL": "2097152,16,64"}
 COLUMNS = ["pair", "adapter", "max_dist_m", "queries", "found", "instructions", "data_reads", "data_writes",
-           "d1_misses", "ll_misses"]
+           "d1_misses", "ll_misses", "branches", "mispredicts"]
 
 
 def die(message):
@@ -51,6 +53,7 @@ def parse_args():
                    help="comma-separated MODEL:QUERY (shapes or files) or real pair names")
     p.add_argument("--max-dist", type=float, default=0.1, help="maximal distance, metres")
     p.add_argument("--points", type=int, help="points per synthetic set (nns_query's default otherwise)")
+    p.add_argument("--cold", action="store_true", help="count the first batch in a fresh process, not the second")
     p.add_argument("--nns-query", default=str(HERE / "build/release/bench/nns_query"), help="the binary to count")
     p.add_argument("--out", required=True, help="results file (TSV with a commented header), written atomically")
     p.add_argument("--resume", action="store_true", help="keep the rows --out already holds; count the others")
@@ -116,15 +119,17 @@ def totals(callgrind_out):
     return dict(zip(events, values + [0] * (len(events) - len(values))))
 
 
-def count(args, pair, label, work):
-    """One adapter's batch on one pair: the row of COLUMNS (counts a query)."""
+def run_batches(args, pair, label, batches, work):
+    """The events callgrind counted over the first `batches` batches of one adapter on one pair, and nns_query's
+    statistics."""
     model, query = model_and_query(pair)
     adapter, params = adapter_and_params(label)
     cg_out, stats = work / "callgrind.out", work / "stats.json"
-    cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", f"--callgrind-out-file={cg_out}",
+    cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--callgrind-out-file={cg_out}",
            "--toggle-collect=nnb::SearchIndex::ranged*"] + [f"--{level}={geometry}" for level, geometry in CACHES.items()]
     cmd += [args.nns_query, "--model", model, "--query", query, "--adapter", adapter, "--search", "ranged",
-            "--k", "1", "--max-dist", repr(args.max_dist), "--out", str(work / "rows.csv"), "--stats", str(stats)]
+            "--k", "1", "--max-dist", repr(args.max_dist), "--repeat", str(batches), "--out", str(work / "rows.csv"),
+            "--stats", str(stats)]
     cmd += [arg for param in params for arg in ("--param", param)]
     if args.points is not None:
         cmd += ["--points", str(args.points)]
@@ -132,14 +137,24 @@ def count(args, pair, label, work):
     if proc.returncode != 0:
         last = [line for line in proc.stderr.splitlines() if not line.startswith("==")][-1:] or ["no message"]
         raise RuntimeError(f"{label} on {pair} exited {proc.returncode}: {last[0]}")
-    s = json.loads(stats.read_text())
-    t = totals(cg_out)
+    return totals(cg_out), json.loads(stats.read_text())
+
+
+def count(args, pair, label, work):
+    """One adapter's counted batch on one pair: the row of COLUMNS (counts a query)."""
+    t, s = run_batches(args, pair, label, 1, work)
+    if not args.cold:
+        two, _ = run_batches(args, pair, label, 2, work)
+        t = {event: two[event] - t[event] for event in t}
+        if min(t.values()) < 0:
+            raise RuntimeError(f"{label} on {pair}: two batches counted less than one (counts not repeatable)")
     n = s["query_points"]
     if t.get("Ir", 0) == 0:
         raise RuntimeError(f"{label} on {pair}: nothing counted inside the search call")
     per_query = lambda v: f"{v / n:.1f}"
     return [pair, label, repr(args.max_dist), str(n), str(s["found"]), per_query(t["Ir"]), per_query(t["Dr"]),
-            per_query(t["Dw"]), per_query(t["D1mr"] + t["D1mw"]), per_query(t["DLmr"] + t["DLmw"])]
+            per_query(t["Dw"]), per_query(t["D1mr"] + t["D1mw"]), per_query(t["DLmr"] + t["DLmw"]),
+            per_query(t["Bc"] + t["Bi"]), per_query(t["Bcm"] + t["Bim"])]
 
 
 def header(args):
@@ -147,12 +162,16 @@ def header(args):
     valgrind = subprocess.run(["valgrind", "--version"], capture_output=True, text=True).stdout.strip()
     return [f"# cache_counts: {datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')}; command: "
             + " ".join([sys.argv[0]] + sys.argv[1:]),
-            f"# binary: {args.nns_query}: {version}; {valgrind} (callgrind, --cache-sim=yes)",
-            f"# settings: max_dist_m {args.max_dist!r}; points {args.points}; {version}",
+            f"# binary: {args.nns_query}: {version}; {valgrind} (callgrind, --cache-sim=yes --branch-sim=yes)",
+            f"# settings: max_dist_m {args.max_dist!r}; points {args.points}; batch {batch_counted(args)}; {version}",
             "# simulated caches: " + ", ".join(f"{k} {v} (bytes,ways,line)" for k, v in CACHES.items()),
             "# counted inside SearchIndex::ranged only (the batch, not loading or building); one thread; ranged 1-NN,"
             " each adapter's default strategy; every count is a query's (instructions executed, data reads and"
-            " writes, D1 and LL misses, reads and writes)"]
+            " writes, D1 and LL misses, reads and writes, conditional and indirect branches and their mispredictions)"]
+
+
+def batch_counted(args):
+    return "first (cold: a fresh process)" if args.cold else "second (warm: as micro_nns repeats a batch)"
 
 
 def kept_rows(args, out, settings_line):
@@ -199,7 +218,7 @@ def main():
                 except RuntimeError as e:
                     die(str(e))
                 print(f"cache_counts: {pair} {adapter}: {rows[-1][5]} instructions, {rows[-1][8]} D1 misses,"
-                      f" {rows[-1][9]} LL misses a query", file=sys.stderr)
+                      f" {rows[-1][9]} LL misses, {rows[-1][11]} mispredicts a query", file=sys.stderr)
                 write_atomically(out, lines, rows)
     write_atomically(out, lines, rows)
 

@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
-"""scripts/cache_counts.py: brute force and ours_kdtree on a 2,000-point pair give a row each of counts a query;
+"""scripts/cache_counts.py: brute force and ours_kdtree on a 2,000-point pair give a row each of counts a query
+(the second batch's);
 brute force executes far more instructions a query than the tree, and its scan streams 48 KB of points through
 the simulated 32 KiB L1, so it misses at least (48,000 - 32,768) / 64 lines a query; the counts are the same in
-a second run; an adapter's parameters (ours_kdtree[bucket_size=1,order=caller]) reach nns_query and label
+a second run; --cold counts the first batch, which sets up ours' scratch, so more instructions; an adapter's parameters (ours_kdtree[bucket_size=1,order=caller]) reach nns_query and label
 the row; --resume counts only the rows missing; bad arguments exit 2 with one line and write no file.
 
 Usage: test_cache_counts.py CACHE_COUNTS_PY NNS_QUERY WORK_DIR. Counts from Valgrind's simulation, never a
@@ -42,6 +43,14 @@ def main(script, nns_query, work):
     assert brute["queries"] == tree["queries"] == "2000" and brute["found"] == tree["found"], f"{brute} {tree}"
     assert float(brute["instructions"]) > 10 * float(tree["instructions"]) > 0, f"{brute} {tree}"
     assert float(brute["d1_misses"]) >= (48000 - 32768) / 64, f"brute force's scan missed too little: {brute}"
+    for row in (brute, tree):
+        assert 0 <= float(row["mispredicts"]) <= float(row["branches"]) > 0, f"branch counts: {row}"
+    cold = work / "cold.tsv"
+    run(script, common + ["--adapters", "ours_kdtree", "--cold", "--out", str(cold)], 0)
+    first = rows_of(cold)[0]
+    assert "batch first (cold" in cold.read_text() and "batch second (warm" in text, "the header names no batch"
+    assert float(first["instructions"]) > float(tree["instructions"]), f"cold {first} against warm {tree}"
+    assert first["found"] == tree["found"], f"cold {first} against warm {tree}"
     again = work / "again.tsv"
     run(script, common + ["--adapters", "ours_kdtree", "--out", str(again)], 0)
     assert rows_of(again)[0] == tree, f"a second run counted otherwise: {rows_of(again)[0]} against {tree}"
