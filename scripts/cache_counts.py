@@ -3,10 +3,11 @@
 ranged 1-NN batch in nns_query under Valgrind's callgrind, which counts only inside the search call (not loading,
 building or writing rows) and simulates one cache geometry and one branch predictor for every library and machine.
 The batch counted is the second of two, as micro_nns times a batch (the index, its scratch and the caches as the
-first left them; the second run's counts less the first's); --cold counts the first batch in a fresh process. The counts are the same on every
-run, so they stand where this machine kind's timings are too noisy, and they put numbers on the paper's cache
-argument where the machine exposes no hardware counters. A simulation, not the CPU: no prefetchers, one
-cache level below L1, a simple branch predictor.
+first left them; the second run's counts less the first's); --cold counts the first batch in a fresh process. The
+counts are the same on every run, so they stand where this machine kind's timings are too noisy, and they put
+numbers on the paper's cache argument where the machine exposes no hardware counters. A simulation, not the CPU:
+no prefetchers, one cache level below L1, and a 2-bit counter a branch, which a CPU's history-based predictor beats
+(at a loop's exit above all), so mispredicts compare libraries on one model rather than give cycles.
 
   scripts/cache_counts.py [--adapters A,B[NAME=VALUE,...]] [--pairs MODEL:QUERY|PAIR,...] [--max-dist M]
                           [--points N] [--cold] [--nns-query PATH] [--resume] --out FILE
@@ -126,7 +127,8 @@ def run_batches(args, pair, label, batches, work):
     adapter, params = adapter_and_params(label)
     cg_out, stats = work / "callgrind.out", work / "stats.json"
     cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--callgrind-out-file={cg_out}",
-           "--toggle-collect=nnb::SearchIndex::ranged*"] + [f"--{level}={geometry}" for level, geometry in CACHES.items()]
+           "--toggle-collect=nnb::SearchIndex::ranged*"]
+    cmd += [f"--{level}={geometry}" for level, geometry in CACHES.items()]
     cmd += [args.nns_query, "--model", model, "--query", query, "--adapter", adapter, "--search", "ranged",
             "--k", "1", "--max-dist", repr(args.max_dist), "--repeat", str(batches), "--out", str(work / "rows.csv"),
             "--stats", str(stats)]
@@ -167,7 +169,8 @@ def header(args):
             "# simulated caches: " + ", ".join(f"{k} {v} (bytes,ways,line)" for k, v in CACHES.items()),
             "# counted inside SearchIndex::ranged only (the batch, not loading or building); one thread; ranged 1-NN,"
             " each adapter's default strategy; every count is a query's (instructions executed, data reads and"
-            " writes, D1 and LL misses, reads and writes, conditional and indirect branches and their mispredictions)"]
+            " writes, D1 and LL misses, reads and writes, conditional and indirect branches and their"
+            " mispredictions)"]
 
 
 def batch_counted(args):

@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """scripts/cache_counts.py: brute force and ours_kdtree on a 2,000-point pair give a row each of counts a query
-(the second batch's);
-brute force executes far more instructions a query than the tree, and its scan streams 48 KB of points through
-the simulated 32 KiB L1, so it misses at least (48,000 - 32,768) / 64 lines a query; the counts are the same in
-a second run; --cold counts the first batch, which sets up ours' scratch, so more instructions; an adapter's parameters (ours_kdtree[bucket_size=1,order=caller]) reach nns_query and label
-the row; --resume counts only the rows missing; bad arguments exit 2 with one line and write no file.
+(the second batch's); brute force executes far more instructions a query than the tree, and its scan streams 48 KB
+of points through the simulated 32 KiB L1, so it misses at least (48,000 - 32,768) / 64 lines a query; branches and
+mispredicts are counted; the counts are the same in a second run; --cold counts the first batch, which sets up ours'
+scratch, so more instructions; an adapter's parameters (ours_kdtree[bucket_size=1,order=caller]) reach nns_query and
+label the row; --resume counts only the rows missing; bad arguments exit 2 with one line and write no file.
 
 Usage: test_cache_counts.py CACHE_COUNTS_PY NNS_QUERY WORK_DIR. Counts from Valgrind's simulation, never a
 timing, so nothing here depends on the machine."""
