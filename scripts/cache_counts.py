@@ -122,9 +122,9 @@ def totals(callgrind_out):
 
 def run_batches(args, pair, label, batches, work):
     """The events callgrind counted over the first `batches` batches of one adapter on one pair, and nns_query's
-    statistics."""
+    statistics. label: (its text, the adapter, its parameters)."""
     model, query = model_and_query(pair)
-    adapter, params = adapter_and_params(label)
+    text, adapter, params = label
     cg_out, stats = work / "callgrind.out", work / "stats.json"
     cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--callgrind-out-file={cg_out}",
            "--toggle-collect=nnb::SearchIndex::ranged*"]
@@ -138,23 +138,24 @@ def run_batches(args, pair, label, batches, work):
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         last = [line for line in proc.stderr.splitlines() if not line.startswith("==")][-1:] or ["no message"]
-        raise RuntimeError(f"{label} on {pair} exited {proc.returncode}: {last[0]}")
+        raise RuntimeError(f"{text} on {pair} exited {proc.returncode}: {last[0]}")
     return totals(cg_out), json.loads(stats.read_text())
 
 
 def count(args, pair, label, work):
     """One adapter's counted batch on one pair: the row of COLUMNS (counts a query)."""
+    text = label[0]
     t, s = run_batches(args, pair, label, 1, work)
     if not args.cold:
         two, _ = run_batches(args, pair, label, 2, work)
         t = {event: two[event] - t[event] for event in t}
         if min(t.values()) < 0:
-            raise RuntimeError(f"{label} on {pair}: two batches counted less than one (counts not repeatable)")
+            raise RuntimeError(f"{text} on {pair}: two batches counted less than one (counts not repeatable)")
     n = s["query_points"]
     if t.get("Ir", 0) == 0:
-        raise RuntimeError(f"{label} on {pair}: nothing counted inside the search call")
+        raise RuntimeError(f"{text} on {pair}: nothing counted inside the search call")
     per_query = lambda v: f"{v / n:.1f}"
-    return [pair, label, repr(args.max_dist), str(n), str(s["found"]), per_query(t["Ir"]), per_query(t["Dr"]),
+    return [pair, text, repr(args.max_dist), str(n), str(s["found"]), per_query(t["Ir"]), per_query(t["Dr"]),
             per_query(t["Dw"]), per_query(t["D1mr"] + t["D1mw"]), per_query(t["DLmr"] + t["DLmw"]),
             per_query(t["Bc"] + t["Bi"]), per_query(t["Bcm"] + t["Bim"])]
 
@@ -196,14 +197,14 @@ def write_atomically(out, lines, rows):
 
 def main():
     args = parse_args()
-    adapters = split_labels(args.adapters)
+    adapters = [(text, *adapter_and_params(text)) for text in split_labels(args.adapters)]
     pairs = [p for p in args.pairs.split(",") if p]
     if not adapters or not pairs:
         die("give at least one adapter and one pair")
     known = known_adapters(args.nns_query)
-    for label in adapters:
-        if adapter_and_params(label)[0] not in known:
-            die(f"unknown adapter '{label}' (nns_query --list shows those built in)")
+    for text, adapter, _ in adapters:
+        if adapter not in known:
+            die(f"unknown adapter '{text}' (nns_query --list shows those built in)")
     out = Path(args.out)
     if not out.parent.is_dir():
         die(f"no folder {out.parent} for --out")
@@ -212,16 +213,18 @@ def main():
     rows = []
     with tempfile.TemporaryDirectory(prefix="cache_counts_") as tmp:
         for pair in pairs:
-            for adapter in adapters:
-                if (pair, adapter) in kept:
-                    rows.append(kept[(pair, adapter)])
+            for label in adapters:
+                if (pair, label[0]) in kept:
+                    rows.append(kept[(pair, label[0])])
                     continue
                 try:
-                    rows.append(count(args, pair, adapter, Path(tmp)))
+                    rows.append(count(args, pair, label, Path(tmp)))
                 except RuntimeError as e:
                     die(str(e))
-                print(f"cache_counts: {pair} {adapter}: {rows[-1][5]} instructions, {rows[-1][8]} D1 misses,"
-                      f" {rows[-1][9]} LL misses, {rows[-1][11]} mispredicts a query", file=sys.stderr)
+                row = dict(zip(COLUMNS, rows[-1]))
+                print(f"cache_counts: {pair} {label[0]}: {row['instructions']} instructions, {row['d1_misses']} D1"
+                      f" misses, {row['ll_misses']} LL misses, {row['mispredicts']} mispredicts a query",
+                      file=sys.stderr)
                 write_atomically(out, lines, rows)
     write_atomically(out, lines, rows)
 
