@@ -16,11 +16,15 @@
 #                                                      so that a new machine resumes them
 # --until TIME (what date -d reads: 03:05 means today's, so past midnight give the date) stops the step in
 # flight then (it resumes next time) and starts none after it.
+# --noise-limit X (default 1.10): before a sitting's first step, scripts/machine_noise.py times a few benchmarks
+# and the run refuses to start when their repetitions spread more than X (slowest over fastest): a busy host
+# under a virtual machine shows there, not in the load. 'none' runs anyway. The log records the spread before
+# and after each sitting, and micro_nns's own (the median and largest over its benchmarks).
 # ICP on the real pairs runs this clone's definition of it (which adapters it leaves out), even from an older
 # --source; the results file records the definition it ran.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-src=$here out="" until="" only="" build=1 list=0 install=0 from_pending=0 end_early="" reason=""
+src=$here out="" until="" only="" build=1 list=0 install=0 from_pending=0 end_early="" reason="" noise_limit=1.10
 die() { echo "reference_run: error: $*" >&2; exit 2; }
 # Microseconds make each log line its event's alone, so --install can skip the lines a clone already has.
 now() { date +%Y-%m-%dT%H:%M:%S.%6N%:z; }
@@ -36,11 +40,13 @@ while [ $# -gt 0 ]; do
     --from-pending) from_pending=1 ;;
     --end-early) end_early=${2:?}; shift ;;
     --reason) reason=${2:?}; shift ;;
+    --noise-limit) noise_limit=${2:?}; shift ;;
     *) die "unknown option '$1' (see the head of $0)" ;;
   esac
   shift
 done
 [ -n "$out" ] || die "--out DIR is required (a folder outside the source tree)"
+[ "$noise_limit" = none ] || [[ $noise_limit =~ ^[0-9]+(\.[0-9]+)?$ ]] || die "--noise-limit takes a number (1.10) or none"
 mkdir -p "$out" && out=$(cd "$out" && pwd)
 case $out/ in "$src"/*) die "--out $out lies inside the source tree $src: the tree would not stay clean" ;; esac
 bench=${NNB_BENCH_DIR:-build/release/bench}
@@ -192,6 +198,19 @@ built=$("$bench/nns_query" --version 2>/dev/null | sed -n 's/.*(git \([^,]*\),.*
 
 log() { echo "$(now) $* | load $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/log.txt"; }
 
+# The machine's timing noise (scripts/machine_noise.py), logged; before a sitting, a spread over the limit
+# stops the run.
+noise() {
+  local line rc=0 limit=()
+  if [ "$1" = before ] && [ "$noise_limit" != none ]; then limit=(--limit "$noise_limit"); fi
+  line=$(/usr/bin/python3 "$here/scripts/machine_noise.py" --micro-nns "$bench/micro_nns" "${limit[@]}" 2>&1) || rc=$?
+  log "noise $1: ${line:-no output}"
+  if [ ${#limit[@]} -gt 0 ] && [ $rc != 0 ]; then
+    [ $rc = 1 ] || die "the noise probe failed (--noise-limit none runs without its verdict): $line"
+    die "the machine is noisy: ${line%% (*} above --noise-limit $noise_limit; wait for a quiet spell, or pass --noise-limit none (the log keeps the spread)"
+  fi
+}
+
 run_micro_nns() {  # its JSON lacks the load and the tree state: a header and footer in micro_nns.txt say them
   mkdir -p "$out/micro_nns"
   {
@@ -218,13 +237,16 @@ run_checks() {
 }
 
 mkdir -p "$out/.done"
+to_do=0
+for s in "${selected[@]}"; do [ -f "$out/.done/$s" ] || to_do=1; done
+[ $to_do = 0 ] || noise before
 for s in "${selected[@]}"; do
   [ -f "$out/.done/$s" ] && continue
   [ "$(clean_commit)" = "$commit" ] || die "HEAD moved during the run"
   left=""
   if [ -n "$deadline" ]; then
     left=$((deadline - $(date +%s)))
-    if [ "$left" -le 0 ]; then log "stop before $s (--until $until)"; exit 0; fi
+    if [ "$left" -le 0 ]; then log "stop before $s (--until $until)"; noise after; exit 0; fi
   fi
   command_of "$s"
   mkdir -p "$(dirname "$out/$(output_of "$s")")"
@@ -240,10 +262,15 @@ for s in "${selected[@]}"; do
     "${cmd[@]}" > "$out/$s.stdout" 2> "$out/$s.stderr" || rc=$?
   fi
   log "end $s rc=$rc"
+  # The step's own repetitions say how steady the machine was while it ran (a probe sees seconds of it).
+  if [ "$s" = micro_nns ] && [ $rc = 0 ]; then
+    log "noise in micro_nns: $(/usr/bin/python3 "$here/scripts/machine_noise.py" --results "$out/$(output_of micro_nns)" 2>&1)"
+  fi
   if [ $rc != 0 ]; then
-    [ $rc = 124 ] && { log "stopped $s at --until $until; rerun to resume it"; exit 0; }
+    [ $rc = 124 ] && { log "stopped $s at --until $until; rerun to resume it"; noise after; exit 0; }
     echo "reference_run: $s failed (exit $rc); its stderr: $out/$s.stderr" >&2; exit 1
   fi
   touch "$out/.done/$s"
 done
+[ $to_do = 0 ] || noise after
 log "all steps done"

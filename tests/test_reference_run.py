@@ -17,7 +17,7 @@ STEPS = ["micro_nns", "registry", "checks", "quick", "scale", "icp_accuracy", "r
          "icp_track", "icp_bucket", "icp_real", "paper_grid", "paper_grid_spatialindex", "real"]
 
 STAND_IN = r'''#!/usr/bin/env python3
-import os, sys, time
+import json, os, sys, time
 name = os.path.basename(sys.argv[0])
 args = sys.argv[1:]
 if args[:1] == ["--version"]:  # not recorded: the script asks before any step
@@ -25,6 +25,13 @@ if args[:1] == ["--version"]:  # not recorded: the script asks before any step
     sys.exit(0)
 with open(os.environ["CALLS"], "a") as f:
     f.write(name + " " + " ".join(args) + "\n")
+if name == "micro_nns":  # the noise probe and the micro_nns step: NOISE's spread, 1.05 unless set
+    out = [a.split("=", 1)[1] for a in args if a.startswith("--benchmark_out=")][0]
+    spread = float(os.environ.get("NOISE", "1.05"))
+    runs = [{"run_name": b, "run_type": "iteration", "cpu_time": 2.0 * (spread if r == 3 else 1.0)}
+            for b in ("probe/a", "probe/b") for r in range(7)]
+    open(out, "w").write(json.dumps({"benchmarks": runs}))
+    sys.exit(0)
 if args[:1] == ["--list"]:
     print("brute_force\tx\nours_kdtree\tx\nspatialindex_rstar\tx\nspatialindex_quadratic\tx\nnanoflann_kdtree\tx")
     sys.exit(0)
@@ -93,6 +100,14 @@ def calls():
     return CALLS.read_text().splitlines() if CALLS.exists() else []
 
 
+def probes():
+    return [c for c in calls() if "--benchmark_filter=" in c]
+
+
+def steps_called():
+    return [c for c in calls() if "--benchmark_filter=" not in c]
+
+
 shutil.rmtree(WORK, ignore_errors=True)
 WORK.mkdir(parents=True)
 BENCH = make_bench(WORK / "bench")
@@ -115,7 +130,7 @@ check(not calls(), f"a run on stale binaries called programs: {calls()}")
 # libspatialindex and libspatialindex on its own, ICP on the real pairs at the bucket run's best buckets.
 out = WORK / "out"
 run(tree, out)
-ran = [c for c in calls() if "--list" not in c and "--version" not in c]
+ran = [c for c in steps_called() if "--list" not in c and "--version" not in c]
 checks = [c for c in ran if "--check" in c]
 check(len(checks) == 3 and len(ran) == len(STEPS) - 1 + 2, f"{len(ran)} programs ran for {len(STEPS)} steps: {ran}")
 check("nns_query --list --json" in calls(), f"the registry not written: {calls()}")
@@ -137,6 +152,12 @@ check(any(icp_real in c for c in ran), f"ICP on the real pairs not from the scri
 check((out / "micro_nns" / "micro_nns.txt").read_text().count("# before: ") == 1, "micro_nns.txt lacks its load")
 log = (out / "log.txt").read_text()
 check(log.count(" start ") == len(STEPS) and "all steps done" in log and "load " in log, f"log: {log}")
+# The machine's noise probed before the sitting's first step and after its last, each in the log.
+check(len(probes()) == 2 and "noise before: spread 1.050" in log and "noise after: spread 1.050" in log
+      and log.index("noise before") < log.index(" start ") and log.index("noise after") > log.rindex(" end "),
+      f"the noise probes: {probes()} {log}")
+check("noise in micro_nns: spread median 1.050, largest 1.050 (probe/a) over 2 benchmarks" in log,
+      f"micro_nns's own spread not logged: {log}")
 # Each line's time to the microsecond makes it its event's alone: --install drops lines a clone already has.
 check(all(re.match(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{6}[+-]\d\d:\d\d ", line) for line in log.splitlines()),
       f"a log line without its time to the microsecond: {log}")
@@ -228,5 +249,30 @@ env = dict(os.environ, NNB_BENCH_DIR=str(BENCH), CALLS=str(CALLS), STAMP=head(tr
 proc = subprocess.run([str(clone / "scripts" / SCRIPT.name), "--source", str(tree), "--out", str(out4), "--no-build",
                        "--steps", "icp_accuracy", "--from-pending"], capture_output=True, text=True, env=env)
 check(proc.returncode == 0 and (out4 / ".done" / "icp_accuracy").exists(), f"--from-pending: {proc.stderr}")
-check(calls() == [f"run_icp --experiment icp_accuracy --out {out4}/icp_accuracy.json --resume"], f"{calls()}")
+check(steps_called() == [f"run_icp --experiment icp_accuracy --out {out4}/icp_accuracy.json --resume"], f"{calls()}")
+
+# A noisy machine: the run refuses to start (one line, exit 2), the spread in the log; --noise-limit none or a
+# higher limit runs; a limit that is not a number is refused.
+out6 = WORK / "out6"
+CALLS.unlink()
+noisy = {"NOISE": "1.5"}
+run(tree, out6, "--steps", "registry", expect=2, env_extra=noisy)
+check(steps_called() == [] and len(probes()) == 1 and not (out6 / ".done" / "registry").exists(),
+      f"a noisy machine ran steps: {calls()}")
+check("noise before: spread 1.500" in (out6 / "log.txt").read_text(), "the refused sitting's spread not logged")
+run(tree, out6, "--steps", "registry", "--noise-limit", "1.6", env_extra=noisy)
+check((out6 / ".done" / "registry").exists(), "a spread within --noise-limit refused")
+run(tree, out6, "--steps", "checks", "--noise-limit", "none", env_extra=noisy)
+check((out6 / ".done" / "checks").exists(), "--noise-limit none refused")
+run(tree, out6, "--steps", "quick", "--noise-limit", "loud", expect=2)
+
+# machine_noise.py on its own: a probe that fails, and a file that is no micro_nns run, get one line and exit 2.
+noise_py = SCRIPT.parent / "machine_noise.py"
+(WORK / "not_json.txt").write_text("not a run\n")
+(WORK / "no_repetitions.json").write_text('{"benchmarks": []}')
+for args in (["--micro-nns", "/bin/false"], ["--micro-nns", str(WORK / "missing")],
+             ["--results", str(WORK / "not_json.txt")], ["--results", str(WORK / "no_repetitions.json")]):
+    proc = subprocess.run([sys.executable, str(noise_py), *args], capture_output=True, text=True)
+    check(proc.returncode == 2 and len(proc.stderr.splitlines()) == 1 and proc.stderr.startswith("machine_noise: error: "),
+          f"machine_noise.py {args}: exit {proc.returncode}: {proc.stderr}")
 print("reference_run: all checks passed")
