@@ -27,6 +27,7 @@ import subprocess
 import sys
 import tempfile
 from datetime import datetime, timezone
+from typing import NamedTuple
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent.parent
@@ -88,6 +89,13 @@ def split_labels(text):
     return [label for label in labels if label]
 
 
+class Label(NamedTuple):
+    """An adapter label as given (it names the row), the adapter it names and its parameters (NAME=VALUE each)."""
+    text: str
+    adapter: str
+    params: list
+
+
 def adapter_and_params(label):
     """The adapter a label names and its parameters (NAME=VALUE each), for nns_query's --param."""
     m = re.fullmatch(r"([A-Za-z0-9_]+)(?:\[([^\[\]]*)\])?", label)
@@ -122,29 +130,28 @@ def totals(callgrind_out):
 
 def run_batches(args, pair, label, batches, work):
     """The events callgrind counted over the first `batches` batches of one adapter on one pair, and nns_query's
-    statistics. label: (its text, the adapter, its parameters)."""
+    statistics."""
     model, query = model_and_query(pair)
-    text, adapter, params = label
     cg_out, stats = work / "callgrind.out", work / "stats.json"
     cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--callgrind-out-file={cg_out}",
            "--toggle-collect=nnb::SearchIndex::ranged*"]
     cmd += [f"--{level}={geometry}" for level, geometry in CACHES.items()]
-    cmd += [args.nns_query, "--model", model, "--query", query, "--adapter", adapter, "--search", "ranged",
+    cmd += [args.nns_query, "--model", model, "--query", query, "--adapter", label.adapter, "--search", "ranged",
             "--k", "1", "--max-dist", repr(args.max_dist), "--repeat", str(batches), "--out", str(work / "rows.csv"),
             "--stats", str(stats)]
-    cmd += [arg for param in params for arg in ("--param", param)]
+    cmd += [arg for param in label.params for arg in ("--param", param)]
     if args.points is not None:
         cmd += ["--points", str(args.points)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         last = [line for line in proc.stderr.splitlines() if not line.startswith("==")][-1:] or ["no message"]
-        raise RuntimeError(f"{text} on {pair} exited {proc.returncode}: {last[0]}")
+        raise RuntimeError(f"{label.text} on {pair} exited {proc.returncode}: {last[0]}")
     return totals(cg_out), json.loads(stats.read_text())
 
 
 def count(args, pair, label, work):
     """One adapter's counted batch on one pair: the row of COLUMNS (counts a query)."""
-    text = label[0]
+    text = label.text
     t, s = run_batches(args, pair, label, 1, work)
     if not args.cold:
         two, _ = run_batches(args, pair, label, 2, work)
@@ -197,14 +204,14 @@ def write_atomically(out, lines, rows):
 
 def main():
     args = parse_args()
-    adapters = [(text, *adapter_and_params(text)) for text in split_labels(args.adapters)]
+    adapters = [Label(text, *adapter_and_params(text)) for text in split_labels(args.adapters)]
     pairs = [p for p in args.pairs.split(",") if p]
     if not adapters or not pairs:
         die("give at least one adapter and one pair")
     known = known_adapters(args.nns_query)
-    for text, adapter, _ in adapters:
-        if adapter not in known:
-            die(f"unknown adapter '{text}' (nns_query --list shows those built in)")
+    for label in adapters:
+        if label.adapter not in known:
+            die(f"unknown adapter '{label.text}' (nns_query --list shows those built in)")
     out = Path(args.out)
     if not out.parent.is_dir():
         die(f"no folder {out.parent} for --out")
@@ -214,15 +221,15 @@ def main():
     with tempfile.TemporaryDirectory(prefix="cache_counts_") as tmp:
         for pair in pairs:
             for label in adapters:
-                if (pair, label[0]) in kept:
-                    rows.append(kept[(pair, label[0])])
+                if (pair, label.text) in kept:
+                    rows.append(kept[(pair, label.text)])
                     continue
                 try:
                     rows.append(count(args, pair, label, Path(tmp)))
                 except RuntimeError as e:
                     die(str(e))
                 row = dict(zip(COLUMNS, rows[-1]))
-                print(f"cache_counts: {pair} {label[0]}: {row['instructions']} instructions, {row['d1_misses']} D1"
+                print(f"cache_counts: {pair} {label.text}: {row['instructions']} instructions, {row['d1_misses']} D1"
                       f" misses, {row['ll_misses']} LL misses, {row['mispredicts']} mispredicts a query",
                       file=sys.stderr)
                 write_atomically(out, lines, rows)
