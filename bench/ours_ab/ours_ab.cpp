@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <string>
@@ -109,8 +110,11 @@ void answer(const Side& side, void* index, const nnb::Cloud& queries, double max
   t.fastest_ms = std::min(t.fastest_ms, took.count());
 }
 
-void* build(const Side& side, const std::string& tree, const nnb::Cloud& model) {
-  void* index = side.build(tree.c_str(), model.data(), static_cast<std::size_t>(model.cols()));
+// A side's index, freed by that side whichever way the cell ends.
+using Built = std::unique_ptr<void, void (*)(void*)>;
+
+Built build(const Side& side, const std::string& tree, const nnb::Cloud& model) {
+  Built index(side.build(tree.c_str(), model.data(), static_cast<std::size_t>(model.cols())), side.free);
   if (!index) throw std::runtime_error(side.path + " could not build " + tree);
   return index;
 }
@@ -153,13 +157,13 @@ int run(const Options& o) {
   std::printf("%-26s %-9s %-6s %6s | %10s %10s | %s\n", "pair", "queries", "tree", "d [m]", "A ms", "B ms", "B/A");
   for (const Batch& batch : batches(o.pairs, o.data_dir)) {
     for (const std::string& tree : o.trees) {
-      void* ia = build(a, tree, *batch.model);
-      void* ib = build(b, tree, *batch.model);
+      const Built ia = build(a, tree, *batch.model);
+      const Built ib = build(b, tree, *batch.model);
       for (const double d : o.dists_m) {
         Timed ta, tb;
         for (int r = 0; r < 2 * o.rounds; ++r) {  // A B B A A B ...: each side first as often
-          if ((r + r / 2) % 2 == 0) answer(a, ia, batch.queries, d, ta);
-          else answer(b, ib, batch.queries, d, tb);
+          if ((r + r / 2) % 2 == 0) answer(a, ia.get(), batch.queries, d, ta);
+          else answer(b, ib.get(), batch.queries, d, tb);
         }
         const std::string diff = first_difference(ta, tb);
         if (!diff.empty()) {
@@ -172,8 +176,6 @@ int run(const Options& o) {
                     tree.c_str(), d, ta.fastest_ms, tb.fastest_ms, ratios.back());
         std::fflush(stdout);
       }
-      a.free(ia);
-      b.free(ib);
     }
   }
   if (ratios.empty()) throw InputError("no cell to run");
