@@ -32,6 +32,7 @@
 #include "nnb/registry.hpp"
 #include "ours/kdtree.hpp"
 #include "ours/octree.hpp"
+#include "shuffled_scan.hpp"
 
 #include <benchmark/benchmark.h>
 
@@ -42,9 +43,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
-#include <numeric>
 #include <optional>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -113,15 +112,6 @@ struct Clouds {
   std::string error;  // why the pair could not be loaded
 };
 
-nnb::Cloud shuffled(const nnb::Cloud& scan) {
-  std::vector<Eigen::Index> order(static_cast<std::size_t>(scan.cols()));
-  std::iota(order.begin(), order.end(), Eigen::Index(0));
-  std::shuffle(order.begin(), order.end(), std::mt19937_64(42));
-  nnb::Cloud out(3, scan.cols());
-  for (std::size_t i = 0; i < order.size(); ++i) out.col(Eigen::Index(i)) = scan.col(order[i]);
-  return out;
-}
-
 Clouds load(const PairSpec& spec) {
   Clouds c;
   if (spec.dataset.empty()) {
@@ -133,7 +123,7 @@ Clouds load(const PairSpec& spec) {
     using nnb::datasets::Role;
     c.model = nnb::datasets::resolve_cloud(spec.dataset, Role::model, data_options()).points;
     c.queries = nnb::datasets::resolve_cloud(spec.dataset, Role::query, data_options()).points;
-    if (spec.shuffled) c.queries = shuffled(c.queries);
+    if (spec.shuffled) c.queries = nnb::bench::shuffled_scan(c.queries);
   } catch (const std::exception& e) {
     c.error = e.what();
   }

@@ -43,7 +43,7 @@ side() {
   fi
   # shellcheck disable=SC2086 # the flags are words
   c++ -std=c++17 $cxxflags -fPIC -shared -fvisibility=hidden -fvisibility-inlines-hidden -I"$include" \
-    -isystem /usr/include/eigen3 "$here/bench/ours_ab/side.cpp" -o "$work/$name.so" 2> "$work/$name.log" ||
+    "$here/bench/ours_ab/side.cpp" -o "$work/$name.so" 2> "$work/$name.log" ||
     die "side $name ($rev) does not compile: $(grep -m1 'error' "$work/$name.log" || head -1 "$work/$name.log")"
 }
 

@@ -8,6 +8,7 @@
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/datasets/manifest.hpp"
 #include "nnb/datasets/synthetic.hpp"
+#include "shuffled_scan.hpp"
 
 #include <dlfcn.h>
 
@@ -16,8 +17,6 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
-#include <numeric>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -55,15 +54,6 @@ struct Batch {
   nnb::Cloud queries;
 };
 
-nnb::Cloud shuffled(const nnb::Cloud& scan) {
-  std::vector<Eigen::Index> order(static_cast<std::size_t>(scan.cols()));
-  std::iota(order.begin(), order.end(), Eigen::Index(0));
-  std::shuffle(order.begin(), order.end(), std::mt19937_64(42));  // micro_nns's shuffle
-  nnb::Cloud out(3, scan.cols());
-  for (std::size_t i = 0; i < order.size(); ++i) out.col(Eigen::Index(i)) = scan.col(order[i]);
-  return out;
-}
-
 // Figure 3's pair and the real pairs with files, by name.
 std::vector<std::string> pair_names() {
   std::vector<std::string> all{"fig3"};
@@ -89,7 +79,7 @@ std::vector<Batch> batches(const std::vector<std::string>& names, const std::str
     using nnb::datasets::Role;
     auto model = std::make_shared<const nnb::Cloud>(nnb::datasets::resolve_cloud(name, Role::model, options).points);
     nnb::Cloud scan = nnb::datasets::resolve_cloud(name, Role::query, options).points;
-    out.push_back({name, "shuffled", model, shuffled(scan)});
+    out.push_back({name, "shuffled", model, nnb::bench::shuffled_scan(scan)});
     out.push_back({name, "file", model, std::move(scan)});
   }
   return out;
