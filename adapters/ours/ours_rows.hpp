@@ -216,8 +216,14 @@ void ranged(const Tree& tree, const Cloud& model, const Cloud& queries, int k, d
   const std::vector<std::uint32_t>& order = scratch.order.order;
   ours::morton_order(queries.data() + 3 * probe, rest, scratch.order);
   scratch.sorted_xyz.resize(3 * rest);
-  for (std::size_t s = 0; s < rest; ++s)
-    std::copy_n(queries.data() + 3 * (probe + order[s]), 3, scratch.sorted_xyz.data() + 3 * s);
+  // Coordinate by coordinate: std::copy_n of three doubles became a library memmove call a query.
+  for (std::size_t s = 0; s < rest; ++s) {
+    const double* from = queries.data() + 3 * (probe + order[s]);
+    double* to = scratch.sorted_xyz.data() + 3 * s;
+    to[0] = from[0];
+    to[1] = from[1];
+    to[2] = from[2];
+  }
   const auto query_of = [&](std::size_t s) { return probe + order[s]; };
   if (k == 1) {
     // A row of at most one neighbour is stored straight at its query's place, in one pass.

@@ -539,8 +539,12 @@ class NearestCollector {
   void offer_block(const T* sq, const std::uint32_t* index, std::uint32_t m, T nearest) {
     offer(nearest, index[std::min(find_first(sq, m, nearest), m - 1)]);
   }
+  /// Field by field: a pair built on the stack and copied as one 16-byte load waited on its two stores.
   void finish() {
-    if (found_) best_.push_back({bound_, index_});
+    if (!found_) return;
+    Neighbour<T>& nearest = best_.emplace_back();
+    nearest.sq_dist = bound_;
+    nearest.index = index_;
   }
 
  private:
