@@ -28,11 +28,10 @@
 #include "icp_experiment.hpp"
 #include "machine.hpp"
 #include "nnb/datasets/catalog.hpp"
-#include "nnb/datasets/synthetic.hpp"
 #include "nnb/registry.hpp"
 #include "ours/kdtree.hpp"
 #include "ours/octree.hpp"
-#include "shuffled_scan.hpp"
+#include "timed_batches.hpp"
 
 #include <benchmark/benchmark.h>
 
@@ -47,6 +46,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <unistd.h>
@@ -115,8 +115,9 @@ struct Clouds {
 Clouds load(const PairSpec& spec) {
   Clouds c;
   if (spec.dataset.empty()) {
-    c.model = nnb::datasets::make_shape(nnb::datasets::Shape::hollow_sphere, 60000, 1);
-    c.queries = nnb::datasets::make_shape(nnb::datasets::Shape::hollow_cube, 60000, 1);
+    nnb::bench::Figure3Pair fig3 = nnb::bench::figure3_pair();
+    c.model = std::move(fig3.model);
+    c.queries = std::move(fig3.queries);
     return c;
   }
   try {

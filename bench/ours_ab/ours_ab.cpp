@@ -7,8 +7,7 @@
 #include "cli_common.hpp"
 #include "nnb/datasets/catalog.hpp"
 #include "nnb/datasets/manifest.hpp"
-#include "nnb/datasets/synthetic.hpp"
-#include "shuffled_scan.hpp"
+#include "timed_batches.hpp"
 
 #include <dlfcn.h>
 
@@ -18,6 +17,7 @@
 #include <iostream>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -71,9 +71,9 @@ std::vector<Batch> batches(const std::vector<std::string>& names, const std::str
   for (const std::string& name : pair_names()) {
     if (!names.empty() && std::find(names.begin(), names.end(), name) == names.end()) continue;
     if (name == "fig3") {
-      using nnb::datasets::Shape;
-      auto model = std::make_shared<const nnb::Cloud>(nnb::datasets::make_shape(Shape::hollow_sphere, 60000, 1));
-      out.push_back({name, "generated", model, nnb::datasets::make_shape(Shape::hollow_cube, 60000, 1)});
+      nnb::bench::Figure3Pair fig3 = nnb::bench::figure3_pair();
+      auto model = std::make_shared<const nnb::Cloud>(std::move(fig3.model));
+      out.push_back({name, "generated", model, std::move(fig3.queries)});
       continue;
     }
     using nnb::datasets::Role;
