@@ -681,10 +681,12 @@ class KdTree {
   };
 
   // Pushes the far child of a first-descent step when it lies within the bound (offsets: that one axis).
+  // Here and in the descents, offsets and cells are written coordinate by coordinate from registers:
+  // one coordinate written at an index known only at run time, then all three read back, stalls the
+  // read until the write has left the store buffer.
   void push_far(const DescentStep<T>& step, T offset, T bound, PendingCell<T>*& top) const {
     if (offset * offset * shrink_ <= bound) {
-      top->offsets = {0, 0, 0};
-      top->offsets[step.dim] = offset;
+      for (unsigned d = 0; d < 3; ++d) top->offsets[d] = d == step.dim ? offset : T(0);
       top->sq_dist = offset * offset;
       top->node = step.far;
       ++top;
@@ -742,8 +744,11 @@ class KdTree {
       step.right = offset > 0;
       step.far = step.right ? index + 1 : node.right_or_size();
       push_far(step, offset, limit, top);
-      if (step.right) cell.lo[step.dim] = std::max(cell.lo[step.dim], step.plane);
-      else cell.hi[step.dim] = std::min(cell.hi[step.dim], step.plane);
+      for (unsigned d = 0; d < 3; ++d) {
+        const bool axis = d == step.dim;
+        cell.lo[d] = axis && step.right ? std::max(cell.lo[d], step.plane) : cell.lo[d];
+        cell.hi[d] = axis && !step.right ? std::min(cell.hi[d], step.plane) : cell.hi[d];
+      }
       cells[level] = cell;
       index = step.right ? node.right_or_size() : index + 1;
       node = nodes_[index];
@@ -786,8 +791,7 @@ class KdTree {
         const T new_off = batch.q[j].p[dim] - plane(dim, cut);
         const bool go_right = new_off > 0;
         PendingCell<T>* const top = batch.top[j];
-        top->offsets = {0, 0, 0};
-        top->offsets[dim] = new_off;
+        for (unsigned d = 0; d < 3; ++d) top->offsets[d] = d == dim ? new_off : T(0);
         top->sq_dist = new_off * new_off;
         top->node = go_right ? index + 1 : nd.right_or_size();
         batch.top[j] = top + (inner && top->sq_dist * shrink_ <= batch.limit[j] ? 1 : 0);
@@ -828,8 +832,7 @@ class KdTree {
         const std::uint32_t right = node.right_or_size();
         const bool go_right = new_off > 0;
         const T far_rd = rd - offsets[dim] * offsets[dim] + new_off * new_off;
-        top->offsets = offsets;
-        top->offsets[dim] = new_off;
+        for (unsigned d = 0; d < 3; ++d) top->offsets[d] = d == dim ? new_off : offsets[d];
         top->sq_dist = far_rd;
         top->node = go_right ? index + 1 : right;
         top += far_rd * shrink_ <= collect.bound() ? 1 : 0;
