@@ -47,12 +47,15 @@ inline void put_times(ordered_json& j, double wall_s, double cpu_s) {
   j["time_unit"] = time_unit;
 }
 
-/// Seconds in one of Google Benchmark's time units (files of other versions used ms and s).
-inline double seconds_per(const json& unit) {
-  static const std::map<std::string, double> units{{"ns", 1e-9}, {"us", 1e-6}, {"ms", 1e-3}, {"s", 1.0}};
-  const auto it = units.find(unit.get<std::string>());
-  if (it == units.end()) throw json::other_error::create(501, "unknown time_unit " + unit.dump(), nullptr);
-  return it->second;
+/// Seconds from a time in one of Google Benchmark's time units (files of other versions used ms and s).
+/// Divided by the unit's count per second, not multiplied by its length: v / 1e6 is the double put_times
+/// turns back into v, while v * 1e-6 is off by an ulp for about a quarter of times, so a record a child
+/// hands its parent, or --resume rewrites, would not be written back as it was read.
+inline double seconds_from(double value, const json& unit) {
+  static const std::map<std::string, double> per_second_of{{"ns", 1e9}, {"us", 1e6}, {"ms", 1e3}, {"s", 1.0}};
+  const auto it = per_second_of.find(unit.get<std::string>());
+  if (it == per_second_of.end()) throw json::other_error::create(501, "unknown time_unit " + unit.dump(), nullptr);
+  return value / it->second;
 }
 
 /// The file's text: the context indented, then the records (already serialised) a line each.

@@ -277,9 +277,9 @@ Record from_json(const std::vector<const json*>& group) {
   r.cpu = get_stats(j, "cpu_");
   for (const json* rep : group) {
     if (is_aggregate(*rep) || !rep->contains("real_time") || rep->contains("median_s")) continue;
-    const double unit_s = results::seconds_per(rep->at("time_unit"));
-    r.wall_each_s.push_back(read_number(rep->at("real_time")) * unit_s);
-    r.cpu_each_s.push_back(read_number(rep->at("cpu_time")) * unit_s);
+    const json& unit = rep->at("time_unit");
+    r.wall_each_s.push_back(results::seconds_from(read_number(rep->at("real_time")), unit));
+    r.cpu_each_s.push_back(results::seconds_from(read_number(rep->at("cpu_time")), unit));
   }
   if (j.contains("skipped")) r.skipped = j["skipped"].get<std::string>();
   r.n_points = whole_or<std::size_t>(j, "n_points", 0);  // sweep records of older files lack it
