@@ -3,10 +3,12 @@
 # 600), one after another, single job. Seeds: fuzz/seeds/<target>/ and the regression corpus. Crashes land
 # in build/fuzz/artifacts/<target>/; once fixed, copy them to fuzz/regressions/<target>/ (ctest replays those).
 #   scripts/fuzz.sh [SECONDS] [TARGET...]
+#   scripts/fuzz.sh --replay [TARGET...]   build, then run every seed and regression once through each target
+#                                          (part of the test command: the fuzz build must not rot unseen)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
-seconds="${1:-600}"
-shift || true
+replay=0
+if [ "${1:-}" = "--replay" ]; then replay=1; shift; seconds=0; else seconds="${1:-600}"; shift || true; fi
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(pcd ply text3d xyz bin experiment results icp_results)
 build="$root/build/fuzz"
@@ -14,7 +16,23 @@ build="$root/build/fuzz"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNNB_FUZZ=ON \
       -DNNB_BUILD_TESTS=OFF -DNNB_BUILD_BENCH=OFF \
       -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 >/dev/null
-cmake --build "$build" -j1 --target $(printf 'fuzz_%s ' "${targets[@]}")
+cmake --build "$build" -j "$(nproc 2>/dev/null || echo 1)" --target $(printf 'fuzz_%s ' "${targets[@]}")
+
+if [ "$replay" = 1 ]; then
+  status=0
+  for target in "${targets[@]}"; do
+    # -runs=0: each input of the folders once, nothing generated, nothing written
+    if (cd "$build" && ASAN_OPTIONS=detect_leaks=1 "$build/fuzz/fuzz_$target" -runs=0 -rss_limit_mb=1024 \
+          -malloc_limit_mb=512 -timeout=10 "$root/fuzz/seeds/$target" "$root/fuzz/regressions/$target" \
+          >"$build/replay_$target.log" 2>&1); then
+      echo "fuzz_$target: $(grep -o 'INITED.*' "$build/replay_$target.log" | head -1)"
+    else
+      echo "fuzz_$target: FAILED, see $build/replay_$target.log"
+      status=1
+    fi
+  done
+  exit $status
+fi
 
 status=0
 for target in "${targets[@]}"; do

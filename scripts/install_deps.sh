@@ -12,6 +12,7 @@ PACKAGES=(
   pybind11-dev python3-dev python3-scipy python3-pykdtree python3-sklearn
   python3 python3-matplotlib python3-numpy python3-plotly chromium
   slurm-wlm munge procps valgrind
+  clang-14 libclang-rt-14-dev  # the libFuzzer targets (fuzz/)
 )
 
 missing=()

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The README's test command: install the dependencies, build the release and the sanitizer presets,
-# and run the whole ctest suite under both.
+# and run the whole ctest suite under both; then build the libFuzzer targets and replay their inputs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
@@ -15,3 +15,5 @@ for preset in release sanitize; do
     exit 1
   fi
 done
+echo "=== fuzz: build the libFuzzer targets, replay their seeds and regressions ==="
+./scripts/fuzz.sh --replay
