@@ -49,8 +49,8 @@ inline void put_times(ordered_json& j, double wall_s, double cpu_s) {
 
 /// Seconds from a time in one of Google Benchmark's time units (files of other versions used ms and s).
 /// Divided by the unit's count per second, not multiplied by its length: v / 1e6 is the double put_times
-/// turns back into v, while v * 1e-6 is off by an ulp for about a quarter of times, so a record a child
-/// hands its parent, or --resume rewrites, would not be written back as it was read.
+/// turns back into v (tests/test_results_times.cpp), while v * 1e-6 is often an ulp off, so a record a
+/// child hands its parent, or --resume rewrites, would not be written back as it was read.
 inline double seconds_from(double value, const json& unit) {
   static const std::map<std::string, double> per_second_of{{"ns", 1e9}, {"us", 1e6}, {"ms", 1e3}, {"s", 1.0}};
   const auto it = per_second_of.find(unit.get<std::string>());
