@@ -8,7 +8,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 replay=0
-if [ "${1:-}" = "--replay" ]; then replay=1; shift; seconds=0; else seconds="${1:-600}"; shift || true; fi
+if [ "${1:-}" = "--replay" ]; then replay=1; shift; else seconds="${1:-600}"; shift || true; fi
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(pcd ply text3d xyz bin experiment results icp_results)
 build="$root/build/fuzz"
@@ -18,13 +18,21 @@ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNNB_FU
       -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 >/dev/null
 cmake --build "$build" -j "$(nproc 2>/dev/null || echo 1)" --target $(printf 'fuzz_%s ' "${targets[@]}")
 
+# run_fuzzer TARGET LOG ARGS...: the target on its seeds and regressions (after ARGS' own folders), from the
+# build folder, its output in LOG. rss_limit: a loader that allocates what a header claims shows up as an
+# out-of-memory finding.
+run_fuzzer() {
+  local target=$1 log=$2
+  shift 2
+  (cd "$build" && ASAN_OPTIONS=detect_leaks=1 "$build/fuzz/fuzz_$target" -rss_limit_mb=1024 -malloc_limit_mb=512 \
+     -timeout=10 "$@" "$root/fuzz/seeds/$target" "$root/fuzz/regressions/$target" >"$log" 2>&1)
+}
+
+status=0
 if [ "$replay" = 1 ]; then
-  status=0
   for target in "${targets[@]}"; do
     # -runs=0: each input of the folders once, nothing generated, nothing written
-    if (cd "$build" && ASAN_OPTIONS=detect_leaks=1 "$build/fuzz/fuzz_$target" -runs=0 -rss_limit_mb=1024 \
-          -malloc_limit_mb=512 -timeout=10 "$root/fuzz/seeds/$target" "$root/fuzz/regressions/$target" \
-          >"$build/replay_$target.log" 2>&1); then
+    if run_fuzzer "$target" "$build/replay_$target.log" -runs=0; then
       echo "fuzz_$target: $(grep -o 'INITED.*' "$build/replay_$target.log" | head -1)"
     else
       echo "fuzz_$target: FAILED, see $build/replay_$target.log"
@@ -34,17 +42,13 @@ if [ "$replay" = 1 ]; then
   exit $status
 fi
 
-status=0
 for target in "${targets[@]}"; do
   corpus="$build/corpus/$target"
   artifacts="$build/artifacts/$target"
   mkdir -p "$corpus" "$artifacts"
   echo "== fuzz_$target for ${seconds}s"
-  # rss_limit: a loader that allocates what a header claims shows up as an out-of-memory finding.
-  if ! (cd "$build" && ASAN_OPTIONS=detect_leaks=1 "$build/fuzz/fuzz_$target" -max_total_time="$seconds" \
-          -rss_limit_mb=1024 -malloc_limit_mb=512 -timeout=10 -print_final_stats=1 \
-          -artifact_prefix="$artifacts/" "$corpus" "$root/fuzz/seeds/$target" "$root/fuzz/regressions/$target" \
-          >"$build/fuzz_$target.log" 2>&1); then
+  if ! run_fuzzer "$target" "$build/fuzz_$target.log" -max_total_time="$seconds" -print_final_stats=1 \
+         -artifact_prefix="$artifacts/" "$corpus"; then
     echo "   finding: see $build/fuzz_$target.log and $artifacts/"
     status=1
   fi
