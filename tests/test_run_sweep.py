@@ -413,10 +413,13 @@ def case_bad_input():
     check(sorted(p.name for p in work.iterdir()) == ["bad.json"], "bad input left files behind")
 
 
-def check_rounds(path, rounds, repetitions, build_repetitions):
-    """Every cell that ran holds its repetitions of every round, agreeing; skipped cells stay one record."""
+def check_rounds(path, rounds, repetitions, build_repetitions, budget_s=None):
+    """Every cell that ran holds its repetitions of every round, agreeing, unless a call over budget_s ended
+    its rounds there (as it ends repetitions); skipped cells stay one record."""
     doc = load(path)
     check_repetition_records(doc["records"])
+    calls_s = {name: [r["real_time"] / 1e6 for r in recs if r["run_type"] == "iteration" and "real_time" in r]
+               for name, recs in cell_groups(doc["records"]).items()}
     ran = [r for r in doc["benchmarks"] if "skipped" not in r]
     check(ran, f"{path}: no cell ran")
     for rec in doc["benchmarks"]:
@@ -425,6 +428,10 @@ def check_rounds(path, rounds, repetitions, build_repetitions):
             check("rounds" not in rec, f"{rec['name']}: a skipped cell has rounds")
             continue
         per_round = build_repetitions if rec["type"] == "build" else repetitions
+        if budget_s is not None and rec["type"] == "sweep" and rec.get("rounds", 1) < rounds:
+            check(calls_s[rec["name"]][-1] > budget_s and rec["repetitions"] == rec.get("rounds", 1) * per_round,
+                  f"{rec['name']}: {rec.get('rounds', 1)} rounds, its last call within the budget")
+            continue
         check(rec.get("rounds") == rounds and rec["repetitions"] == rounds * per_round,
               f"{rec['name']}: {rec.get('rounds')} rounds, {rec['repetitions']} repetitions")
         check(rec["type"] == "build" or not rec["exact"] or rec.get("agrees") is True,
@@ -448,11 +455,16 @@ def case_rounds():
     run(common + ["--out", str(one)])
     check(all("rounds" not in r for r in load_raw(one)["benchmarks"]) and
           "rounds" not in load_raw(one)["context"]["config"], "a run of one round records rounds")
-    # cells over the budget are skipped in the first round and not run again
+    # cells over the budget are skipped in the first round and not run again; a call over it ends its
+    # cell's rounds, as it ends repetitions (the builds, which the budget does not judge, take all three)
     tight = work / "tight.json"
     run(args + ["--budget", "1e-9", "--out", str(tight)])
-    doc = check_rounds(tight, 3, 1, 3)
+    doc = check_rounds(tight, 3, 1, 3, budget_s=1e-9)
     check(any("skipped" in r for r in doc["benchmarks"]), "a 1 ns budget skipped nothing")
+    timed = [r for r in doc["benchmarks"] if "skipped" not in r and r["type"] == "sweep"]
+    check(timed and all(r.get("rounds", 1) == 1 for r in timed),
+          f"calls over a 1 ns budget were timed again: rounds {sorted({r.get('rounds', 1) for r in timed})}")
+    check(all(r["rounds"] == 3 for r in doc["benchmarks"] if r["type"] == "build"), "a build lost rounds")
     # killed in the second round, resumed: every cell ends with its three rounds
     killed = work / "killed.json"
     proc = run(args + ["--out", str(killed)], env={"NNB_SWEEP_ABORT_AFTER_CELLS": str(n_cells + 5)}, expect=None)

@@ -410,8 +410,17 @@ void run_unit_isolated(const Unit& unit, SweepState& s, ResultsSink& sink) {
 // Rounds after the first: each cell that ran is timed again in a later pass over its model's units, and its
 // calls join the cell's record; the answers must be those of the first round.
 
-// Whether the cell takes part in this round: it ran, and has fewer rounds than this one.
-bool due_in_round(const Record* r, int round) { return r && r->skipped.empty() && r->rounds < round; }
+// Whether a cell's calls so far ended its timing: a call over the budget ends its rounds as it ends its
+// repetitions within one (a 200 s call is not made three times).
+bool ended_by_budget(const Record& r, const Experiment& e) {
+  return r.type == Record::Type::sweep && !r.wall_each_s.empty() && ends_repetitions(r.wall_each_s, e);
+}
+
+// Whether the record takes part in this round: it ran, has fewer rounds than this one and the budget did not
+// end it.
+bool due_in_round(const Record* r, int round, const Experiment& e) {
+  return r && r->skipped.empty() && r->rounds < round && !ended_by_budget(*r, e);
+}
 
 // old with fresh's timings added as one more round.
 Record with_round(const Record& old, const Record& fresh) {
@@ -452,7 +461,7 @@ void run_unit_round(const Unit& unit, int round, SweepState& s, ResultsSink& sin
   double slowest_build_s = 0.0;
   const std::unique_ptr<SearchIndex> index = build_index(unit, s.e, b, slowest_build_s, s.progress);
   if (!index) return;  // build_index said why; the cells keep their earlier rounds
-  if (const Record* old = sink.find(unit.build); due_in_round(old, round)) {
+  if (const Record* old = sink.find(unit.build); due_in_round(old, round, s.e)) {
     sink.add({with_round(*old, b)});
     s.progress.end(1, label + "built in " + seconds_text(b.wall.median_s) + " s");
   }
@@ -460,7 +469,7 @@ void run_unit_round(const Unit& unit, int round, SweepState& s, ResultsSink& sin
     for (const auto& group : groups) {
       for (const auto& cell : group.cells) {
         const Record* old = sink.find(cell.name);
-        if (!due_in_round(old, round)) continue;
+        if (!due_in_round(old, round, s.e)) continue;
         s.progress.begin(cell.name);
         Record fresh = sweep_record(*pair, unit.adapter, group, cell, s.data);
         try {
@@ -516,9 +525,10 @@ void run_first_round(const PlanUnit& planned, SweepState& s, ResultsSink& sink) 
 
 // A later round of the unit: its cells that ran and lack this round timed again.
 void run_later_round(const PlanUnit& planned, int round, SweepState& s, ResultsSink& sink) {
-  // skipped cells count as done in every round, for the progress bar
-  s.progress.advance(count_records(planned, sink, [](const Record* r) { return r && !r->skipped.empty(); }));
-  if (count_records(planned, sink, [&](const Record* r) { return due_in_round(r, round); }) > 0) {
+  // skipped cells and those the budget ended count as done in every round, for the progress bar
+  s.progress.advance(count_records(
+      planned, sink, [&](const Record* r) { return r && (!r->skipped.empty() || ended_by_budget(*r, s.e)); }));
+  if (count_records(planned, sink, [&](const Record* r) { return due_in_round(r, round, s.e); }) > 0) {
     run_unit_round_isolated(unit_of(planned, s.data), round, s, sink);
   }
 }
