@@ -407,8 +407,8 @@ void run_unit_isolated(const Unit& unit, SweepState& s, ResultsSink& sink) {
   s.progress.advance(batch.size());
 }
 
-// Rounds after the first: each cell that ran is timed again in a later pass over its model's units, and its
-// calls join the cell's record; the answers must be those of the first round.
+// Rounds after the first: each cell that ran, unless a call over the budget ended it, is timed again in a later
+// pass over its model's units, and its calls join the cell's record; the answers must be those of the first round.
 
 // Whether a cell's calls so far ended its timing: a call over the budget ends its rounds as it ends its
 // repetitions within one (a 200 s call is not made three times).
