@@ -34,4 +34,11 @@ bool reset_peak_rss() {
   return static_cast<bool>(out);
 }
 
+void touch_output(std::size_t n_queries, std::size_t n_neighbours, Neighbours& out) {
+  out.offsets.assign(n_queries + 1, 0);
+  out.indices.assign(n_neighbours, 0);
+  out.sq_dists.assign(n_neighbours, 0.0);
+  out.reset();
+}
+
 }  // namespace nnb::sweep

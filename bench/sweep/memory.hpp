@@ -1,5 +1,8 @@
 #pragma once
-// This process's memory, from Linux's /proc/self: what a build took, for the memory limit.
+// This process's memory, from Linux's /proc/self: what a build took, for the memory limit; and the output
+// memory a timed call writes into.
+#include "nnb/neighbours.hpp"
+
 #include <cstddef>
 
 namespace nnb::sweep {
@@ -10,5 +13,9 @@ std::size_t current_rss_bytes();
 std::size_t peak_rss_bytes();
 /// Resets the peak to the current RSS (writes "5" to /proc/self/clear_refs); false when the kernel refuses.
 bool reset_peak_rss();
+
+/// Empties out with room for n_queries rows and n_neighbours answers, every byte of that room written once,
+/// so that a call answering within it faults in no fresh page.
+void touch_output(std::size_t n_queries, std::size_t n_neighbours, Neighbours& out);
 
 }  // namespace nnb::sweep

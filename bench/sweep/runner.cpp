@@ -123,10 +123,19 @@ bool ends_repetitions(const std::vector<double>& wall, const Experiment& e) {
   return wall.size() > 1 || wall.back() > 2.0 * e.budget_s;
 }
 
-// Returns the fastest repetition's wall time, seconds: what the budget judges.
+// The neighbours a call will return at most, as far as known before it: k a query for k-NN and ranged search;
+// for radius search the count of this cell's earlier round, else of the call before it (distances grow).
+std::size_t expected_neighbours(const Group& group, const Record& r, std::size_t earlier, const Neighbours& last) {
+  if (group.kind == SearchKind::radius) return std::max(earlier, last.total());
+  return std::min(static_cast<std::size_t>(*group.k), r.n_points) * r.n_queries;
+}
+
+// Returns the fastest repetition's wall time, seconds: what the budget judges. out is the unit's, its memory
+// written before the calls: the kernel's first touch of a fresh page is the harness's cost, not the
+// library's, and a cell timed once a round would otherwise pay it in every call, a radius search most.
 double run_cell(const SearchIndex& index, const Cloud& queries, const Group& group, const Cell& cell,
-              const Experiment& e, Record& r) {
-  Neighbours out;  // local: a radius cell may hold hundreds of MB, freed when the cell ends
+              const Experiment& e, std::size_t earlier_neighbours, Neighbours& out, Record& r) {
+  touch_output(r.n_queries, expected_neighbours(group, r, earlier_neighbours, out), out);
   std::vector<double> wall, cpu;
   for (int rep = 0; rep < e.repetitions; ++rep) {
     const double cpu0 = cpu_now_s();
@@ -309,14 +318,14 @@ struct SweepState {
 // Runs one cell; the larger distances of its group are recorded skipped in the same checkpoint when it
 // went over a budget or failed. Returns the reason the group stops, empty when it goes on.
 std::string sweep_cell(const Unit& unit, const DataPair& pair, const Group& group, std::size_t c,
-                       const SearchIndex& index, SweepState& s, ResultsSink& sink) {
+                       const SearchIndex& index, Neighbours& out, SweepState& s, ResultsSink& sink) {
   const Cell& cell = group.cells[c];
   Record r = sweep_record(pair, unit.adapter, group, cell, s.data);
   s.progress.begin(cell.name);
   double fastest_s = 0.0;
   try {
     inject_fault(unit.adapter.name);
-    fastest_s = run_cell(index, s.data.queries.at(pair.query).points, group, cell, s.e, r);
+    fastest_s = run_cell(index, s.data.queries.at(pair.query).points, group, cell, s.e, 0, out, r);
   } catch (const std::bad_alloc&) {
     r.skipped = "out of memory: std::bad_alloc";
     s.progress.loud("ERROR " + cell.name + ": " + r.skipped);
@@ -359,6 +368,7 @@ void run_unit(const Unit& unit, SweepState& s, ResultsSink& sink) {
     sink.add({b});
     s.progress.end(1, b.skipped.empty() ? "built in " + seconds_text(b.wall.median_s) + " s" : b.skipped);
   }
+  Neighbours out;
   for (const auto& [pair, groups] : unit.work) {
     for (const auto& group : groups) {
       std::string stop = b.skipped;
@@ -372,7 +382,7 @@ void run_unit(const Unit& unit, SweepState& s, ResultsSink& sink) {
           s.progress.end(1, "skipped: " + stop);
           continue;
         }
-        if (!(stop = sweep_cell(unit, *pair, group, c, *index, s, sink)).empty()) break;
+        if (!(stop = sweep_cell(unit, *pair, group, c, *index, out, s, sink)).empty()) break;
       }
     }
   }
@@ -465,6 +475,7 @@ void run_unit_round(const Unit& unit, int round, SweepState& s, ResultsSink& sin
     sink.add({with_round(*old, b)});
     s.progress.end(1, label + "built in " + seconds_text(b.wall.median_s) + " s");
   }
+  Neighbours out;
   for (const auto& [pair, groups] : unit.work) {
     for (const auto& group : groups) {
       for (const auto& cell : group.cells) {
@@ -473,7 +484,7 @@ void run_unit_round(const Unit& unit, int round, SweepState& s, ResultsSink& sin
         s.progress.begin(cell.name);
         Record fresh = sweep_record(*pair, unit.adapter, group, cell, s.data);
         try {
-          run_cell(*index, s.data.queries.at(pair->query).points, group, cell, s.e, fresh);
+          run_cell(*index, s.data.queries.at(pair->query).points, group, cell, s.e, old->neighbours, out, fresh);
         } catch (const std::exception& ex) {
           s.progress.loud("ERROR " + label + cell.name + ": " + ex.what());
           continue;

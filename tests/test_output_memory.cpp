@@ -1,0 +1,53 @@
+// The sweep writes a call's output memory before timing it: answers written within that room must fault in
+// no fresh page, or every call of a cell timed once a round would pay the kernel's first touch.
+#include "sweep/memory.hpp"
+
+#include <gtest/gtest.h>
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cstddef>
+
+namespace {
+
+long minor_faults() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_minflt;
+}
+
+// Answers as an adapter writes them: reset, then rows of pushes.
+void answer(std::size_t n_queries, std::size_t per_query, nnb::Neighbours& out) {
+  out.reset();
+  for (std::size_t q = 0; q < n_queries; ++q) {
+    for (std::size_t i = 0; i < per_query; ++i) out.push(static_cast<nnb::PointIndex>(i), 0.25);
+    out.end_query();
+  }
+}
+
+}  // namespace
+
+TEST(TouchOutput, EmptiesTheOutputAndKeepsItsRoom) {
+  nnb::Neighbours out;
+  answer(10, 3, out);
+  nnb::sweep::touch_output(1000, 50000, out);
+  EXPECT_EQ(out.n_queries(), 0u);
+  EXPECT_EQ(out.total(), 0u);
+  EXPECT_GE(out.offsets.capacity(), 1001u);
+  EXPECT_GE(out.indices.capacity(), 50000u);
+  EXPECT_GE(out.sq_dists.capacity(), 50000u);
+}
+
+TEST(TouchOutput, AnswersWithinItsRoomFaultInNoFreshPage) {
+  // 16 Mi answers, 192 MiB: far above the size below which malloc reuses freed memory.
+  constexpr std::size_t kQueries = std::size_t{1} << 20, kPerQuery = 16;
+  const std::size_t pages = kQueries * kPerQuery * (sizeof(nnb::PointIndex) + sizeof(double)) /
+                            static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  nnb::Neighbours out;
+  nnb::sweep::touch_output(kQueries, kQueries * kPerQuery, out);
+  const long before = minor_faults();
+  answer(kQueries, kPerQuery, out);
+  EXPECT_LT(minor_faults() - before, static_cast<long>(pages / 100)) << "of " << pages << " pages";
+  EXPECT_EQ(out.total(), kQueries * kPerQuery);
+}
