@@ -51,3 +51,24 @@ TEST(TouchOutput, AnswersWithinItsRoomFaultInNoFreshPage) {
   EXPECT_LT(minor_faults() - before, static_cast<long>(pages / 100)) << "of " << pages << " pages";
   EXPECT_EQ(out.total(), kQueries * kPerQuery);
 }
+
+TEST(OutputRoom, KnnGetsKAQuery) {
+  EXPECT_EQ(nnb::sweep::output_room(nnb::SearchKind::knn, 8, 1000, 0, 0), 8000u);
+}
+
+TEST(OutputRoom, RadiusFollowsTheEarlierRoundElseTheCallBefore) {
+  EXPECT_EQ(nnb::sweep::output_room(nnb::SearchKind::radius, 0, 1000, 0, 0), 0u);
+  EXPECT_EQ(nnb::sweep::output_room(nnb::SearchKind::radius, 0, 1000, 0, 7000), 7000u);
+  EXPECT_EQ(nnb::sweep::output_room(nnb::SearchKind::radius, 0, 1000, 9000, 7000), 9000u);
+}
+
+TEST(OutputRoom, RangedIsOneAQueryAtLeastAndKAQueryAtMost) {
+  using nnb::SearchKind;
+  EXPECT_EQ(nnb::sweep::output_room(SearchKind::ranged, 1, 1000, 0, 0), 1000u);
+  EXPECT_EQ(nnb::sweep::output_room(SearchKind::ranged, 1, 1000, 5000, 5000), 1000u);
+  EXPECT_EQ(nnb::sweep::output_room(SearchKind::ranged, 5000, 1000, 0, 0), 1000u);
+  EXPECT_EQ(nnb::sweep::output_room(SearchKind::ranged, 5000, 1000, 0, 30000), 30000u);
+  EXPECT_EQ(nnb::sweep::output_room(SearchKind::ranged, 5000, 1000, 42000, 30000), 42000u);
+  // A large k with a small answer: room for the answer, not for 5 million neighbours.
+  EXPECT_LT(nnb::sweep::output_room(SearchKind::ranged, 5000, 1000, 1200, 0), 5000u * 1000u / 100);
+}

@@ -1,5 +1,6 @@
 #include "memory.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -39,6 +40,17 @@ void touch_output(std::size_t n_queries, std::size_t n_neighbours, Neighbours& o
   out.indices.assign(n_neighbours, 0);
   out.sq_dists.assign(n_neighbours, 0.0);
   out.reset();
+}
+
+std::size_t output_room(SearchKind kind, std::size_t k_per_query, std::size_t n_queries, std::size_t earlier_count,
+                        std::size_t last_count) {
+  const std::size_t known = std::max(earlier_count, last_count);
+  switch (kind) {
+    case SearchKind::knn: return k_per_query * n_queries;
+    case SearchKind::radius: return known;
+    case SearchKind::ranged: return std::min(k_per_query * n_queries, std::max(known, n_queries));
+  }
+  return known;
 }
 
 }  // namespace nnb::sweep

@@ -2,6 +2,7 @@
 // This process's memory, from Linux's /proc/self: what a build took, for the memory limit; and the output
 // memory a timed call writes into.
 #include "nnb/neighbours.hpp"
+#include "nnb/search_index.hpp"
 
 #include <cstddef>
 
@@ -17,5 +18,12 @@ bool reset_peak_rss();
 /// Empties out with room for n_queries rows and n_neighbours answers, every byte of that room written once,
 /// so that a call answering within it faults in no fresh page.
 void touch_output(std::size_t n_queries, std::size_t n_neighbours, Neighbours& out);
+
+/// The answers a timed call gets room for. A k-NN call's count is known: k_per_query (k, at most the points) a
+/// query. A radius or ranged call's is not, so it follows what is known of it: the count of its cell's earlier
+/// round, else of the call before it; a ranged call's at least one a query and at most k_per_query a query,
+/// lest a large k write gigabytes before a small answer.
+std::size_t output_room(SearchKind kind, std::size_t k_per_query, std::size_t n_queries, std::size_t earlier_count,
+                        std::size_t last_count);
 
 }  // namespace nnb::sweep

@@ -123,11 +123,9 @@ bool ends_repetitions(const std::vector<double>& wall, const Experiment& e) {
   return wall.size() > 1 || wall.back() > 2.0 * e.budget_s;
 }
 
-// The neighbours a call will return at most, as far as known before it: k a query for k-NN and ranged search;
-// for radius search the count of this cell's earlier round, else of the call before it (distances grow).
-std::size_t expected_neighbours(const Group& group, const Record& r, std::size_t earlier, const Neighbours& last) {
-  if (group.kind == SearchKind::radius) return std::max(earlier, last.total());
-  return std::min(static_cast<std::size_t>(*group.k), r.n_points) * r.n_queries;
+// k a query, at most the points; none for radius search, which has no k.
+std::size_t k_per_query(const Group& group, const Record& r) {
+  return group.k ? std::min(static_cast<std::size_t>(*group.k), r.n_points) : 0;
 }
 
 // Returns the fastest repetition's wall time, seconds: what the budget judges. out is the unit's, its memory
@@ -135,7 +133,8 @@ std::size_t expected_neighbours(const Group& group, const Record& r, std::size_t
 // library's, and a cell timed once a round would otherwise pay it in every call, a radius search most.
 double run_cell(const SearchIndex& index, const Cloud& queries, const Group& group, const Cell& cell,
               const Experiment& e, std::size_t earlier_neighbours, Neighbours& out, Record& r) {
-  touch_output(r.n_queries, expected_neighbours(group, r, earlier_neighbours, out), out);
+  touch_output(r.n_queries,
+               output_room(group.kind, k_per_query(group, r), r.n_queries, earlier_neighbours, out.total()), out);
   std::vector<double> wall, cpu;
   for (int rep = 0; rep < e.repetitions; ++rep) {
     const double cpu0 = cpu_now_s();
