@@ -3,7 +3,9 @@
 
 Per adapter, search kind, strategy and data set (and distance): the ratio B/A of the median times with its
 relative spread, and a flag when the change is beyond the noise: |ln ratio| > SIGMAS x the combined relative
-spread of A and B, and |ratio - 1| > --threshold. Then, per adapter, the geometric mean ratio. Reads both
+spread of A and B, and |ratio - 1| > --threshold. Then, per adapter, the geometric mean ratio. For ICP runs
+in both files, whether each ended at the same pose (bit for bit, else the largest element difference) after as
+many iterations. Reads both
 shapes of record: one per cell with median/min/stddev fields, or Google Benchmark's repetitions
 (`run_type: iteration`) with aggregates (`run_type: aggregate`, `aggregate_name` median/mean/stddev/cv)."""
 import argparse
@@ -86,11 +88,16 @@ def cell_key(rec):
     return rec.get("adapter") or "?", kind, "-", "/".join(parts[1:]) or "-", "-"
 
 
-def read_cells(path):
-    """(context, {cell key: stats or None}) of one results file."""
+def load_doc(path):
     doc = json.loads(Path(path).read_text())
     if not isinstance(doc, dict) or not isinstance(doc.get("benchmarks"), list):
         raise ValueError("not a results file (no 'benchmarks' list)")
+    return doc
+
+
+def read_cells(path, doc=None):
+    """(context, {cell key: stats or None}) of one results file."""
+    doc = load_doc(path) if doc is None else doc
     by_cell = {}
     for rec in doc["benchmarks"]:
         if isinstance(rec, dict):
@@ -115,6 +122,42 @@ def compare(a_cells, b_cells, threshold, sigmas=SIGMAS):
         beyond = abs(math.log(ratio)) > sigmas * spread and abs(ratio - 1.0) > threshold
         rows.append((key, a, b, ratio, spread, ("slower" if ratio > 1 else "faster") if beyond else ""))
     return rows
+
+
+def icp_outcomes(doc):
+    """{cell key: (final pose as a flat list of numbers, iterations)} of a file's ICP runs that ended with a pose."""
+    outcomes = {}
+    for rec in doc["benchmarks"]:
+        if not isinstance(rec, dict) or rec.get("run_type") == "aggregate" or results_io._skip_reason(rec):
+            continue
+        pose = rec.get("final_pose")
+        if cell_key(rec)[1] != "icp" or not isinstance(pose, list):
+            continue
+        flat = [v for row in pose if isinstance(row, list) for v in row]
+        if len(flat) == 16 and all(isinstance(v, (int, float)) and math.isfinite(v) for v in flat):
+            outcomes[cell_key(rec)] = (flat, rec.get("iterations"))
+    return outcomes
+
+
+def pose_rows(a_outcomes, b_outcomes):
+    """[(key, largest element difference of the final poses, A's iterations, B's)] for ICP runs in both."""
+    rows = []
+    for key in sorted(set(a_outcomes) & set(b_outcomes)):
+        (a_pose, a_its), (b_pose, b_its) = a_outcomes[key], b_outcomes[key]
+        rows.append((key, max(abs(x - y) for x, y in zip(a_pose, b_pose)), a_its, b_its))
+    return rows
+
+
+def pose_lines(rows):
+    same = sum(1 for _, diff, a_its, b_its in rows if diff == 0 and a_its == b_its)
+    lines = [f"ICP's final poses: {same} of {len(rows)} runs in both files end at the same pose, bit for bit, "
+             f"after as many iterations" + ("." if same == len(rows) else "; the others:")]
+    if same < len(rows):
+        lines += ["", "| adapter | pair | settings | largest pose difference | iterations A | iterations B |",
+                  "|---|---|---|---|---|---|"]
+        lines += [f"| {key[0]} | {key[3]} | {key[4]} | {diff:.3g} | {a_its} | {b_its} |"
+                  for key, diff, a_its, b_its in rows if diff != 0 or a_its != b_its]
+    return lines
 
 
 def fmt_time(seconds):
@@ -167,11 +210,12 @@ def main(argv=None):
     loaded = []
     for path in (args.a, args.b):
         try:
-            loaded.append(read_cells(path))
+            doc = load_doc(path)
+            loaded.append((*read_cells(path, doc), icp_outcomes(doc)))
         except (OSError, ValueError) as err:
             print(f"compare_runs: {path}: cannot read results ({err})", file=sys.stderr)
             return 2
-    (a_ctx, a_cells), (b_ctx, b_cells) = loaded
+    (a_ctx, a_cells, a_icp), (b_ctx, b_cells, b_icp) = loaded
     print(f"A: {provenance.describe(args.a, a_ctx)}")
     print(f"B: {provenance.describe(args.b, b_ctx)}")
     rows = compare(a_cells, b_cells, args.threshold, args.sigmas)
@@ -181,6 +225,10 @@ def main(argv=None):
     print("\n".join(table_lines(rows)))
     print()
     print("\n".join(summary_lines(rows)))
+    poses = pose_rows(a_icp, b_icp)
+    if poses:
+        print()
+        print("\n".join(pose_lines(poses)))
     return 0
 
 

@@ -40,6 +40,14 @@ def repetitions(adapter, times_ms):
     return recs
 
 
+def icp_run(adapter, pose_offset=0.0, iterations=17, seconds=0.5):
+    """One ICP run's record as run_icp writes it, its final pose the identity's translation moved by pose_offset."""
+    pose = [[1.0, 0.0, 0.0, 0.25 + pose_offset], [0.0, 1.0, 0.0, -0.5], [0.0, 0.0, 1.0, 1.5], [0.0, 0.0, 0.0, 1.0]]
+    return {"name": f"icp/office-sick-3dtk/{adapter}/bucket:10", "pair": "office-sick-3dtk", "adapter": adapter,
+            "run_type": "iteration", "repetition_index": 0, "time_unit": "s", "real_time": seconds,
+            "icp_seconds": seconds, "iterations": iterations, "final_pose": pose}
+
+
 class CompareRunsTest(unittest.TestCase):
     def setUp(self):
         self.tmp = tempfile.TemporaryDirectory()
@@ -96,6 +104,23 @@ class CompareRunsTest(unittest.TestCase):
         stats = next(iter(compare_runs.read_cells(self.write("a.json", recs))[1].values()))
         self.assertAlmostEqual(stats[0], 0.011)
         self.assertAlmostEqual(stats[1], 0.001 / 0.011)
+
+    def test_icp_final_poses_compared_bit_for_bit(self):
+        a = self.write("a.json", [icp_run("ours_kdtree"), icp_run("nanoflann_kdtree"), icp_run("flann_kdtree"),
+                                  icp_run("ann_kdtree")])
+        b = self.write("b.json", [icp_run("ours_kdtree", seconds=0.3), icp_run("nanoflann_kdtree", 2.0 ** -40),
+                                  icp_run("flann_kdtree", iterations=18), icp_run("cgal_kdtree")])
+        proc = self.run_cli(a, b)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertIn("ICP's final poses: 1 of 3 runs in both files end at the same pose, bit for bit, after as many "
+                      "iterations; the others:", proc.stdout)
+        self.assertIn("| nanoflann_kdtree | office-sick-3dtk | bucket:10 | 9.09e-13 | 17 | 17 |", proc.stdout)
+        self.assertIn("| flann_kdtree | office-sick-3dtk | bucket:10 | 0 | 17 | 18 |", proc.stdout)
+        self.assertNotIn("| ours_kdtree | office-sick-3dtk | bucket:10 |", proc.stdout.split("ICP's final poses")[1])
+
+    def test_no_pose_section_without_icp_runs(self):
+        a = self.write("a.json", [cell("ours_kdtree", 1.0)])
+        self.assertNotIn("ICP's final poses", self.run_cli(a, a).stdout)
 
     def test_unreadable_input_exits_2(self):
         bad = self.dir / "bad.json"
