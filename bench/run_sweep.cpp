@@ -157,11 +157,11 @@ int sweep(const Flags& flags, const BuildInfo& build) {
   }
 
   const auto planned = plan.cell_names(in_shard);
-  std::size_t already = 0, rounds_done = 0;  // a skipped cell counts once here, once more at each later round
+  std::size_t already = 0, rounds_done = 0;
   for (const auto& name : planned) {
     const Record* r = results.find(name);
     already += r != nullptr;
-    if (r) rounds_done += r->skipped.empty() ? static_cast<std::size_t>(std::min(r->rounds, experiment.rounds)) : 1;
+    if (r) rounds_done += rounds_counted(*r, experiment);
   }
   std::cerr << "run_sweep: experiment '" << experiment.name << "'"
             << (shard.given ? ", shard " + flags.shard : std::string()) << ": " << planned.size() << " cells ("

@@ -535,15 +535,22 @@ void run_first_round(const PlanUnit& planned, SweepState& s, ResultsSink& sink) 
 
 // A later round of the unit: its cells that ran and lack this round timed again.
 void run_later_round(const PlanUnit& planned, int round, SweepState& s, ResultsSink& sink) {
-  // skipped cells and those the budget ended count as done in every round, for the progress bar
-  s.progress.advance(count_records(
-      planned, sink, [&](const Record* r) { return r && (!r->skipped.empty() || ended_by_budget(*r, s.e)); }));
+  s.progress.advance(
+      count_records(planned, sink, [&](const Record* r) { return r && settled_in_round(*r, round, s.e); }));
   if (count_records(planned, sink, [&](const Record* r) { return due_in_round(r, round, s.e); }) > 0) {
     run_unit_round_isolated(unit_of(planned, s.data), round, s, sink);
   }
 }
 
 }  // namespace
+
+std::size_t rounds_counted(const Record& r, const Experiment& e) {
+  return r.skipped.empty() ? static_cast<std::size_t>(std::min(r.rounds, e.rounds)) : 1;
+}
+
+bool settled_in_round(const Record& r, int round, const Experiment& e) {
+  return !r.skipped.empty() || (ended_by_budget(r, e) && r.rounds < round);
+}
 
 std::size_t run_experiment(const Experiment& e, const LoadedData& data, const SweepPlan& plan,
                            const std::vector<Record>& previous, ResultsSink& sink, Progress& progress,

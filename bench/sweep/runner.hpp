@@ -44,6 +44,12 @@ class ResultsSink {
   virtual void add(const std::vector<Record>& batch) = 0;
 };
 
+/// Progress counts a cell once a round. The rounds a recorded cell has counted for (a skipped one: its first).
+std::size_t rounds_counted(const Record& r, const Experiment& e);
+/// Whether a later round counts the cell without running it: skipped, or ended by the budget in an earlier
+/// round (a cell the budget ended in round 2 was counted there, also when a resumed run passes round 2 again).
+bool settled_in_round(const Record& r, int round, const Experiment& e);
+
 /// Resolves every model and query of the experiment (real scans from data_dir, empty = the default lookup);
 /// throws InputError for a bad name or file.
 LoadedData load_data(const Experiment& experiment, const std::string& data_dir);
