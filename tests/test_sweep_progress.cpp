@@ -1,5 +1,6 @@
-// run_sweep's progress counts every cell once a round: a cell's rounds counted when a run starts plus the later
-// rounds that count it without running it must make the experiment's rounds, however the run was cut.
+// run_sweep's progress counts every cell once a round: what a run counts for a cell at its start plus what it
+// counts as the rounds pass must make the experiment's rounds, however the run was cut, and a resumed run must
+// not count its settled cells as work done in it (its ETA comes from that work).
 #include "sweep/runner.hpp"
 
 #include <gtest/gtest.h>
@@ -11,6 +12,9 @@ namespace {
 
 using nnb::sweep::Experiment;
 using nnb::sweep::Record;
+using nnb::sweep::rounds_counted;
+using nnb::sweep::settled;
+using nnb::sweep::settled_in_round;
 
 Experiment three_rounds() {
   Experiment e;
@@ -19,6 +23,7 @@ Experiment three_rounds() {
   return e;
 }
 
+// A cell as recorded after one call a round with these wall times.
 Record timed(std::vector<double> wall_each_s) {
   Record r;
   r.type = Record::Type::sweep;
@@ -27,47 +32,49 @@ Record timed(std::vector<double> wall_each_s) {
   return r;
 }
 
-// What a run resumed with this record counts for it: at the start, then in each later round it does not run.
-std::size_t counted_by_resumed_run(const Record& r, const Experiment& e) {
-  std::size_t n = nnb::sweep::rounds_counted(r, e);
-  for (int round = 2; round <= e.rounds; ++round) n += nnb::sweep::settled_in_round(r, round, e);
-  return n;
+Record skipped() {
+  Record r;
+  r.skipped = "over budget: 0.6 s at max_dist 0.10 > 0.5 s";
+  return r;
 }
 
-TEST(SweepProgress, CellEndedByTheBudgetInItsSecondRoundCountsThreeRounds) {
+TEST(SweepProgress, SettledCellsCountInFullAtTheStart) {
   const Experiment e = three_rounds();
-  const Record r = timed({0.45, 0.6});  // within the budget, then over it: ended in round 2
-  EXPECT_FALSE(nnb::sweep::settled_in_round(r, 2, e));
-  EXPECT_TRUE(nnb::sweep::settled_in_round(r, 3, e));
-  EXPECT_EQ(counted_by_resumed_run(r, e), 3u);
+  for (const Record& r : {skipped(), timed({1.2}), timed({0.45, 0.6}), timed({0.45, 0.4, 0.7})}) {
+    EXPECT_TRUE(settled(r, e));
+    EXPECT_EQ(rounds_counted(r, e), 3u);
+  }
 }
 
-TEST(SweepProgress, CellEndedByTheBudgetInItsFirstRoundCountsThreeRounds) {
+TEST(SweepProgress, UnsettledCellsCountTheirRoundsSoFar) {
+  const Experiment e = three_rounds();
+  EXPECT_FALSE(settled(timed({0.1}), e));
+  EXPECT_EQ(rounds_counted(timed({0.1}), e), 1u);
+  EXPECT_EQ(rounds_counted(timed({0.45, 0.4}), e), 2u);  // within the budget: runs again
+  EXPECT_EQ(rounds_counted(timed({0.1, 0.1, 0.1}), e), 3u);
+}
+
+// A cell that settles during the run is counted by the rounds it ran in and then by each later round it skips.
+TEST(SweepProgress, CellEndedInItsSecondRoundIsCountedByTheThirdOnly) {
+  const Experiment e = three_rounds();
+  const Record r = timed({0.45, 0.6});
+  EXPECT_FALSE(settled_in_round(r, 2, e));  // it ran in round 2, which counted it
+  EXPECT_TRUE(settled_in_round(r, 3, e));
+}
+
+TEST(SweepProgress, CellEndedInItsFirstRoundIsCountedByEachLaterRound) {
   const Experiment e = three_rounds();
   const Record r = timed({1.2});  // over twice the budget at once
-  EXPECT_TRUE(nnb::sweep::settled_in_round(r, 2, e));
-  EXPECT_EQ(counted_by_resumed_run(r, e), 3u);
-}
-
-TEST(SweepProgress, SkippedCellCountsThreeRounds) {
-  const Experiment e = three_rounds();
-  Record r;
-  r.skipped = "over budget";
-  EXPECT_EQ(counted_by_resumed_run(r, e), 3u);
-}
-
-TEST(SweepProgress, FinishedCellCountsItsRoundsAndIsNotCountedAgain) {
-  const Experiment e = three_rounds();
-  const Record r = timed({0.1, 0.1, 0.1});
-  EXPECT_EQ(counted_by_resumed_run(r, e), 3u);
+  EXPECT_TRUE(settled_in_round(r, 2, e));
+  EXPECT_TRUE(settled_in_round(r, 3, e));
+  EXPECT_TRUE(settled_in_round(skipped(), 2, e));
 }
 
 TEST(SweepProgress, CellStillDueIsNotSettled) {
   const Experiment e = three_rounds();
   const Record r = timed({0.1});  // runs in rounds 2 and 3, where the run counts it
-  EXPECT_FALSE(nnb::sweep::settled_in_round(r, 2, e));
-  EXPECT_FALSE(nnb::sweep::settled_in_round(r, 3, e));
-  EXPECT_EQ(nnb::sweep::rounds_counted(r, e), 1u);
+  EXPECT_FALSE(settled_in_round(r, 2, e));
+  EXPECT_FALSE(settled_in_round(r, 3, e));
 }
 
 }  // namespace

@@ -312,6 +312,7 @@ struct SweepState {
   SizeGate& gate;
   Progress& progress;
   std::size_t disagreements = 0;  // found in this run
+  std::set<std::string> settled_at_start;  // counted whole by the progress at the start
 };
 
 // Runs one cell; the larger distances of its group are recorded skipped in the same checkpoint when it
@@ -535,8 +536,9 @@ void run_first_round(const PlanUnit& planned, SweepState& s, ResultsSink& sink) 
 
 // A later round of the unit: its cells that ran and lack this round timed again.
 void run_later_round(const PlanUnit& planned, int round, SweepState& s, ResultsSink& sink) {
-  s.progress.advance(
-      count_records(planned, sink, [&](const Record* r) { return r && settled_in_round(*r, round, s.e); }));
+  s.progress.advance(count_records(planned, sink, [&](const Record* r) {
+    return r && settled_in_round(*r, round, s.e) && s.settled_at_start.count(r->name) == 0;
+  }));
   if (count_records(planned, sink, [&](const Record* r) { return due_in_round(r, round, s.e); }) > 0) {
     run_unit_round_isolated(unit_of(planned, s.data), round, s, sink);
   }
@@ -544,8 +546,10 @@ void run_later_round(const PlanUnit& planned, int round, SweepState& s, ResultsS
 
 }  // namespace
 
+bool settled(const Record& r, const Experiment& e) { return !r.skipped.empty() || ended_by_budget(r, e); }
+
 std::size_t rounds_counted(const Record& r, const Experiment& e) {
-  return r.skipped.empty() ? static_cast<std::size_t>(std::min(r.rounds, e.rounds)) : 1;
+  return static_cast<std::size_t>(settled(r, e) ? e.rounds : std::min(r.rounds, e.rounds));
 }
 
 bool settled_in_round(const Record& r, int round, const Experiment& e) {
@@ -561,10 +565,13 @@ std::size_t run_experiment(const Experiment& e, const LoadedData& data, const Sw
     agreement.remember(r);
     gate.observe(r);
   }
-  SweepState state{e, data, agreement, gate, progress, 0};
+  SweepState state{e, data, agreement, gate, progress, 0, {}};
+  for (const auto& r : previous) {
+    if (settled(r, e)) state.settled_at_start.insert(r.name);
+  }
   std::vector<const PlanUnit*> model_units;
   // A model's rounds run before the next model's, so that a cell's rounds lie minutes apart, not a whole
-  // plan apart: a run cut into sittings (or resumed on another machine) keeps each cell's calls in one.
+  // plan apart: a run cut into sittings (or resumed on another machine) splits at most one model's calls.
   auto run_model = [&] {
     for (const PlanUnit* planned : model_units) run_first_round(*planned, state, sink);
     for (int round = 2; round <= e.rounds; ++round) {

@@ -44,10 +44,14 @@ class ResultsSink {
   virtual void add(const std::vector<Record>& batch) = 0;
 };
 
-/// Progress counts a cell once a round. The rounds a recorded cell has counted for (a skipped one: its first).
+/// Whether the cell will not run again: skipped, or a call over the budget ended its rounds.
+bool settled(const Record& r, const Experiment& e);
+/// Progress counts a cell once a round. What a run counts at its start for a recorded cell: a settled one in
+/// full (its later rounds cost nothing, and counted as they pass they made a resumed run's ETA far too short),
+/// else its rounds so far.
 std::size_t rounds_counted(const Record& r, const Experiment& e);
-/// Whether a later round counts the cell without running it: skipped, or ended by the budget in an earlier
-/// round (a cell the budget ended in round 2 was counted there, also when a resumed run passes round 2 again).
+/// Whether a later round counts a cell that settled during the run without running it: skipped, or ended by
+/// the budget in an earlier round (one ended in round 2 was counted there).
 bool settled_in_round(const Record& r, int round, const Experiment& e);
 
 /// Resolves every model and query of the experiment (real scans from data_dir, empty = the default lookup);
