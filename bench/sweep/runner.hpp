@@ -47,8 +47,8 @@ class ResultsSink {
 /// Whether the cell will not run again: skipped, or a call over the budget ended its rounds.
 bool settled(const Record& r, const Experiment& e);
 /// Progress counts a cell once a round. What a run counts at its start for a recorded cell: a settled one in
-/// full (its later rounds cost nothing, and counted as they pass they made a resumed run's ETA far too short),
-/// else its rounds so far.
+/// full (its later rounds cost nothing: counted as a resumed run passes them, they would read as work done in
+/// its first seconds and make its ETA far too short), else its rounds so far.
 std::size_t rounds_counted(const Record& r, const Experiment& e);
 /// Whether a later round counts a cell that settled during the run without running it: skipped, or ended by
 /// the budget in an earlier round (one ended in round 2 was counted there).
