@@ -3,11 +3,11 @@
 
 Per adapter, search kind, strategy and data set (and distance): the ratio B/A of the median times with its
 relative spread, and a flag when the change is beyond the noise: |ln ratio| > SIGMAS x the combined relative
-spread of A and B, and |ratio - 1| > --threshold. Then, per adapter, the geometric mean ratio. For ICP runs
-in both files, whether each ended at the same pose (bit for bit, else the largest element difference) after as
-many iterations. Reads both
-shapes of record: one per cell with median/min/stddev fields, or Google Benchmark's repetitions
-(`run_type: iteration`) with aggregates (`run_type: aggregate`, `aggregate_name` median/mean/stddev/cv)."""
+spread of A and B, and |ratio - 1| > --threshold. Then, per adapter, the geometric mean ratio, and per model cloud
+of the search cells, over every adapter and each. For ICP runs in both files, whether each ended at the same pose
+(bit for bit, else the largest element difference) after as many iterations. Reads both shapes of record: one per
+cell with median/min/stddev fields, or Google Benchmark's repetitions (`run_type: iteration`) with aggregates
+(`run_type: aggregate`, `aggregate_name` median/mean/stddev/cv)."""
 import argparse
 import json
 import math
@@ -197,6 +197,23 @@ def summary_lines(rows):
     return lines
 
 
+def model_lines(rows):
+    """Per model cloud of the search cells (builds and ICP left out): the geometric mean of B/A over every
+    adapter's cells, then each adapter's. A resumed run keeps a model's rounds together, so a model mostly ran
+    on one machine."""
+    logs = {}
+    for (adapter, search, _, dataset, _), _, _, ratio, _, _ in rows:
+        if ratio is None or search in ("build", "icp") or " <- " not in dataset:
+            continue
+        model = dataset.split(" <- ")[0]
+        for who in ("all", adapter):
+            logs.setdefault((model, who), []).append(math.log(ratio))
+    lines = ["| model | adapter | cells | geometric mean B/A |", "|---|---|---|---|"]
+    for (model, who), values in sorted(logs.items(), key=lambda kv: (kv[0][0], kv[0][1] != "all", kv[0][1])):
+        lines.append(f"| {model} | {who} | {len(values)} | {math.exp(sum(values) / len(values)):.3f} |")
+    return lines
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("a", type=Path, help="baseline results file")
@@ -225,6 +242,10 @@ def main(argv=None):
     print("\n".join(table_lines(rows)))
     print()
     print("\n".join(summary_lines(rows)))
+    by_model = model_lines(rows)
+    if len(by_model) > 2:
+        print()
+        print("\n".join(by_model))
     poses = pose_rows(a_icp, b_icp)
     if poses:
         print()

@@ -82,6 +82,24 @@ class CompareRunsTest(unittest.TestCase):
         self.assertIn("| ours_kdtree | 1 | 0.500 | 1 | 0 | 0 |", proc.stdout)
         self.assertIn("| cgal_kdtree | 0 | - | 0 | 0 | 1 |", proc.stdout)
 
+    def test_per_model_geometric_means_of_search_cells(self):
+        def on(model, rec):
+            return {**rec, "name": rec["name"].replace("hollow_sphere", model, 1), "model": model}
+        build = {"name": "build/filled_cube/ours_kdtree", "model": "filled_cube", "adapter": "ours_kdtree",
+                 "type": "build", "run_type": "iteration", "repetition_index": 0, "time_unit": "s", "real_time": 1.0,
+                 "median_s": 1.0}
+        a = self.write("a.json", [cell("ours_kdtree", 1.0), cell("ann_kdtree", 1.0),
+                                  on("filled_cube", cell("ours_kdtree", 1.0)), build])
+        b = self.write("b.json", [cell("ours_kdtree", 0.5), cell("ann_kdtree", 2.0),
+                                  on("filled_cube", cell("ours_kdtree", 3.0)), {**build, "real_time": 9.0,
+                                                                                  "median_s": 9.0}])
+        proc = self.run_cli(a, b)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertIn("| hollow_sphere | all | 2 | 1.000 |", proc.stdout)   # 0.5 and 2.0
+        self.assertIn("| hollow_sphere | ann_kdtree | 1 | 2.000 |", proc.stdout)
+        self.assertIn("| filled_cube | all | 1 | 3.000 |", proc.stdout)     # the build's 9x left out
+        self.assertIn("| filled_cube | ours_kdtree | 1 | 3.000 |", proc.stdout)
+
     def test_threshold_option(self):
         a = self.write("a.json", [cell("ann_kdtree", 1.0)])
         b = self.write("b.json", [cell("ann_kdtree", 1.03)])
