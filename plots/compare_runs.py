@@ -130,12 +130,12 @@ def icp_outcomes(doc):
     for rec in doc["benchmarks"]:
         if not isinstance(rec, dict) or rec.get("run_type") == "aggregate" or results_io._skip_reason(rec):
             continue
-        pose = rec.get("final_pose")
-        if cell_key(rec)[1] != "icp" or not isinstance(pose, list):
+        key, pose = cell_key(rec), rec.get("final_pose")
+        if key[1] != "icp" or not isinstance(pose, list):
             continue
         flat = [v for row in pose if isinstance(row, list) for v in row]
         if len(flat) == 16 and all(isinstance(v, (int, float)) and math.isfinite(v) for v in flat):
-            outcomes[cell_key(rec)] = (flat, rec.get("iterations"))
+            outcomes[key] = (flat, rec.get("iterations"))
     return outcomes
 
 
