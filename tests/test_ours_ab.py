@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """scripts/ours_ab.sh: a folder and a git revision of ours/ as the two sides give a row per cell and a summary;
 a side whose answers differ (a copy of ours/include whose k-d tree stops a search early) exits 1 naming the
-cell and the query; bad input (no such revision, a folder without ours/include, a side that does not compile, an
-unknown pair or tree, no rounds) exits 2 with one line.
+cell and the query; --cxx-b compiles side B, and only B, with the compiler given (a wrapper that leaves a mark);
+bad input (no such revision, a folder without ours/include, a side that does not compile, an unknown pair or tree,
+no rounds, no such compiler) exits 2 with one line.
 
 Usage: test_ours_ab.py OURS_AB_SH OURS_AB SOURCE_DIR WORK_DIR. Never a timing: the ratios are only checked to add
 up. The sides are compiled at -O0 (the quickest compile; the script's default is the Release flags)."""
@@ -63,8 +64,22 @@ def main(script, binary, source, work):
     if proc.returncode != 0:
         failures.append(f"folder against HEAD: exit {proc.returncode}: {proc.stderr[-800:]}")
     check_rows(proc.stdout, failures, "folder against HEAD")
-    if not re.search(r"^# B: [0-9a-f]{7,} \(HEAD\)$", proc.stdout, re.M):
-        failures.append(f"the revision side is not named by its commit:\n{proc.stdout}")
+    if not re.search(r"^# B: [0-9a-f]{7,} \(HEAD\); compiler: \S", proc.stdout, re.M):
+        failures.append(f"the revision side is not named by its commit and compiler:\n{proc.stdout}")
+
+    marks = work / "compiled_by_wrapper"
+    marks.unlink(missing_ok=True)
+    wrapper = work / "cxx_wrapper"
+    wrapper.write_text(f'#!/bin/sh\n[ "$1" = --version ] && {{ echo "wrapper of c++"; exit 0; }}\n'
+                       f'echo side >> "{marks}"\nexec c++ "$@"\n')
+    wrapper.chmod(0o755)
+    proc = run(script, binary, "--cxx-b", str(wrapper), str(source), "HEAD", *CELL)
+    check_rows(proc.stdout, failures, "--cxx-b")
+    if not re.search(r"^# B: .*; compiler: wrapper of c\+\+$", proc.stdout, re.M):
+        failures.append(f"--cxx-b: side B's compiler not named:\n{proc.stdout}")
+    if not marks.exists() or marks.read_text().split() != ["side"]:
+        failures.append(f"--cxx-b: the wrapper compiled {marks.read_text().split() if marks.exists() else []}, "
+                        "expected side B alone")
 
     bad = copy_of_ours(source, work / "early_stop", EARLY_STOP)
     proc = run(script, binary, str(source), str(bad), *CELL, "--trees", "kdtree")
@@ -86,6 +101,8 @@ def main(script, binary, source, work):
     for args, expected in ((["--pairs", "nope"], "unknown pair 'nope'"), (["--trees", "quad"], "unknown tree"),
                            (["--rounds", "0"], "--rounds")):
         one_line_refusal(run(script, binary, str(source), str(source), *args), failures, " ".join(args), expected)
+    one_line_refusal(run(script, binary, "--cxx-a", "/no/such/c++", str(source), str(source), *CELL), failures,
+                     "no such compiler", "no compiler '/no/such/c++'")
     one_line_refusal(subprocess.run([script, "--bin", "/no/such/ours_ab", str(source), str(source)],
                                     capture_output=True, text=True), failures, "no driver", "no executable")
     for f in failures:
