@@ -7,7 +7,8 @@ between them. Per cell: the spread within rounds (the median over its rounds of 
 its fastest) and between rounds (the slowest round's median over the fastest's). Per adapter: their geometric
 means, the cells that moved more between rounds than within, how far the first round's median alone (what a
 run of one round reports) lay from the median of all the cell's calls, and which round was the slowest (a
-warm-up shows as the first, slow spells of the machine fall on any)."""
+warm-up shows as the first, slow spells of the machine fall on any). --first-round N lists the N cells whose first
+round lay farthest from all their calls, with each round's median."""
 import argparse
 import json
 import math
@@ -71,10 +72,27 @@ def summary(cells):
     return rows
 
 
+def first_round_outliers(cells, n):
+    """[(first round's median over all calls' median, adapter, cell name, [each round's median])] of the n cells
+    whose first round lay farthest from all their calls (either way), farthest first."""
+    rows = []
+    for (adapter, name), rounds in cells.items():
+        offset = spreads(rounds)[2]
+        rows.append((offset, adapter, name, [results_io._median(r) for r in rounds]))
+    rows.sort(key=lambda r: (-max(r[0], 1 / r[0]), r[1], r[2]))
+    return rows[:n]
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("file", help="a run_sweep results file made with --rounds 2 or more")
-    path = parser.parse_args().file
+    parser.add_argument("--first-round", type=int, default=0, metavar="N",
+                        help="also list the N cells whose first round lay farthest from all their calls")
+    args = parser.parse_args()
+    path = args.file
+    if args.first_round < 0:
+        print(f"round_spread.py: --first-round must be 0 or more, not {args.first_round}", file=sys.stderr)
+        return 2
     try:
         cells = cell_rounds(json.loads(Path(path).read_text()))
     except (OSError, ValueError, AttributeError) as e:
@@ -89,6 +107,12 @@ def main():
     for adapter, n, within, between, more, off, worst, slowest in summary(cells):
         print(f"| {adapter} | {n} | {within:.3f} | {between:.3f} | {more} | {off} | {worst:.3f} | "
               f"{' / '.join(map(str, slowest))} |")
+    if args.first_round:
+        print()
+        print("| first round over all calls | adapter | cell | each round's median, ms |")
+        print("|---|---|---|---|")
+        for offset, adapter, name, medians in first_round_outliers(cells, args.first_round):
+            print(f"| {offset:.3f} | {adapter} | {name} | {' / '.join(f'{m * 1e3:.3g}' for m in medians)} |")
     return 0
 
 

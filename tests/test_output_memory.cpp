@@ -1,5 +1,6 @@
 // The sweep writes a call's output memory before timing it: answers written within that room must fault in
-// no fresh page, or every call of a cell timed once a round would pay the kernel's first touch.
+// no fresh page, or every call of a cell timed once a round would pay the kernel's first touch; a call that
+// outgrew the room is made again, and the call that counts faults in none.
 #include "sweep/memory.hpp"
 
 #include <gtest/gtest.h>
@@ -8,6 +9,7 @@
 #include <unistd.h>
 
 #include <cstddef>
+#include <vector>
 
 namespace {
 
@@ -71,4 +73,37 @@ TEST(OutputRoom, RangedIsOneAQueryAtLeastAndKAQueryAtMost) {
   EXPECT_EQ(nnb::sweep::output_room(SearchKind::ranged, 5000, 1000, 42000, 30000), 42000u);
   // A large k with a small answer: room for the answer, not for 5 million neighbours.
   EXPECT_LT(nnb::sweep::output_room(SearchKind::ranged, 5000, 1000, 1200, 0), 5000u * 1000u / 100);
+}
+
+TEST(CallWithinRoom, ACallWithinTheRoomIsMadeOnce) {
+  nnb::Neighbours out;
+  nnb::sweep::touch_output(1000, 4000, out);
+  std::size_t room = 4000, calls = 0;
+  const int counted = nnb::sweep::call_within_room([&] { answer(1000, 4, out); return ++calls; }, out, room);
+  EXPECT_EQ(calls, 1u);
+  EXPECT_EQ(counted, 1);
+  EXPECT_EQ(room, 4000u);
+}
+
+TEST(CallWithinRoom, ACallThatOutgrewTheRoomIsMadeAgainAndTheSecondFaultsInNoFreshPage) {
+  // As the first round's radius call after a smaller one: room for 1 Mi answers, 16 Mi written (192 MiB).
+  constexpr std::size_t kQueries = std::size_t{1} << 20, kPerQuery = 16;
+  const std::size_t pages = kQueries * kPerQuery * (sizeof(nnb::PointIndex) + sizeof(double)) /
+                            static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  nnb::Neighbours out;
+  std::size_t room = kQueries;
+  nnb::sweep::touch_output(kQueries, room, out);
+  std::vector<long> faults;
+  const long counted = nnb::sweep::call_within_room(
+      [&] {
+        const long before = minor_faults();
+        answer(kQueries, kPerQuery, out);
+        faults.push_back(minor_faults() - before);
+        return faults.back();
+      },
+      out, room);
+  ASSERT_EQ(faults.size(), 2u);
+  EXPECT_EQ(counted, faults[1]);
+  EXPECT_LT(counted, static_cast<long>(pages / 100)) << "of " << pages << " pages";
+  EXPECT_EQ(room, kQueries * kPerQuery);
 }

@@ -19,6 +19,7 @@
 #include <numeric>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include <unistd.h>
 
@@ -130,13 +131,13 @@ std::size_t k_per_query(const Group& group, const Record& r) {
 
 // Returns the fastest repetition's wall time, seconds: what the budget judges. out is the unit's, its memory
 // written before the calls: the kernel's first touch of a fresh page is the harness's cost, not the
-// library's, and a cell timed once a round would otherwise pay it in every call, a radius search most.
+// library's, and a cell timed once a round would otherwise pay it in every call, a radius search most. A
+// call that outgrew that room is made again (call_within_room).
 double run_cell(const SearchIndex& index, const Cloud& queries, const Group& group, const Cell& cell,
               const Experiment& e, std::size_t earlier_neighbours, Neighbours& out, Record& r) {
-  touch_output(r.n_queries,
-               output_room(group.kind, k_per_query(group, r), r.n_queries, earlier_neighbours, out.total()), out);
-  std::vector<double> wall, cpu;
-  for (int rep = 0; rep < e.repetitions; ++rep) {
+  std::size_t room = output_room(group.kind, k_per_query(group, r), r.n_queries, earlier_neighbours, out.total());
+  touch_output(r.n_queries, room, out);
+  const auto timed_call = [&] {
     const double cpu0 = cpu_now_s();
     const auto t0 = std::chrono::steady_clock::now();
     switch (group.kind) {
@@ -145,8 +146,13 @@ double run_cell(const SearchIndex& index, const Cloud& queries, const Group& gro
       case SearchKind::ranged: index.ranged(queries, *group.k, *cell.max_dist_m, out, group.strategy); break;
     }
     const auto t1 = std::chrono::steady_clock::now();
-    cpu.push_back(cpu_now_s() - cpu0);
-    wall.push_back(std::chrono::duration<double>(t1 - t0).count());
+    return std::pair{std::chrono::duration<double>(t1 - t0).count(), cpu_now_s() - cpu0};
+  };
+  std::vector<double> wall, cpu;
+  for (int rep = 0; rep < e.repetitions; ++rep) {
+    const auto [wall_s, cpu_s] = call_within_room(timed_call, out, room);
+    wall.push_back(wall_s);
+    cpu.push_back(cpu_s);
     if (ends_repetitions(wall, e)) break;
     if (e.min_time_s > 0.0 && std::accumulate(wall.begin(), wall.end(), 0.0) >= e.min_time_s) break;
   }

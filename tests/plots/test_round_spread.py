@@ -45,6 +45,29 @@ class RoundSpreadTest(unittest.TestCase):
         self.assertEqual(rows["all"][1], 2)
         self.assertEqual(rows["all"][7], [2, 0, 0])  # ann_kdtree's rounds tie: the first of the slowest
 
+    def test_first_round_outliers_farthest_first_either_way(self):
+        records = (cell("ann_kdtree", [10, 10, 10, 10, 10, 10]) + cell("ours_kdtree", [30, 30, 10, 10, 10, 10], 0.2)
+                   + cell("ours_octree", [5, 5, 10, 10, 10, 10]) + cell("vtk_kdtree", [12, 12, 10, 10, 10, 10]))
+        cells = round_spread.cell_rounds(document(records))
+        rows = round_spread.first_round_outliers(cells, 3)
+        self.assertEqual([r[1] for r in rows], ["ours_kdtree", "ours_octree", "vtk_kdtree"])
+        self.assertAlmostEqual(rows[0][0], 3.0)
+        self.assertAlmostEqual(rows[1][0], 0.5)  # a first round faster than the rest counts too
+        self.assertEqual(rows[0][3], [0.030, 0.010, 0.010])
+        self.assertTrue(rows[0][2].endswith("ours_kdtree/ranged/max_dist:0.20"))
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "run.json"
+            path.write_text(json.dumps(document(records)))
+            proc = subprocess.run([sys.executable, str(SCRIPT), str(path), "--first-round", "1"],
+                                  capture_output=True, text=True, timeout=60)
+            self.assertEqual(proc.returncode, 0, proc.stderr)
+            listed = [line for line in proc.stdout.splitlines() if "/max_dist:" in line]
+            self.assertEqual(listed, ["| 3.000 | ours_kdtree | sweep/hollow_cube/filled_sphere/ours_kdtree/ranged/"
+                                      "max_dist:0.20 | 30 / 10 / 10 |"])
+            proc = subprocess.run([sys.executable, str(SCRIPT), str(path), "--first-round", "-1"],
+                                  capture_output=True, text=True, timeout=60)
+            self.assertEqual((proc.returncode, len(proc.stderr.strip().splitlines()), proc.stdout), (2, 1, ""))
+
     def test_cells_cut_short_and_skipped_cells_are_left_out(self):
         short = cell("ours_kdtree", [10, 11, 10, 11, 10])
         skipped = [{"name": "sweep/x/y/ann_kdtree/ranged/max_dist:0.30", "type": "sweep", "adapter": "ann_kdtree",
