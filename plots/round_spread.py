@@ -8,10 +8,12 @@ its fastest) and between rounds (the slowest round's median over the fastest's).
 means, the cells that moved more between rounds than within, how far the first round's median alone (what a
 run of one round reports) lay from the median of all the cell's calls, and which round was the slowest (a
 warm-up shows as the first, slow spells of the machine fall on any). --first-round N lists the N cells whose first
-round lay farthest from all their calls, with each round's median."""
+round lay farthest from all their calls, with each round's median; --budget-cuts the series that a call over the
+time budget ended on a cell whose calls' median lies within it (the call that ended it was an outlier)."""
 import argparse
 import json
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -83,18 +85,48 @@ def first_round_outliers(cells, n):
     return rows[:n]
 
 
+CUT = re.compile(r"^over budget: \S+ s at max_dist (\S+) > \S+ s$")
+
+
+def budget_cuts(doc):
+    """(series ended over the time budget, [(cutting cell, its calls' median s, its calls)] of those whose
+    cutting cell's median lies within the budget), the cells sorted."""
+    budget = ((doc.get("context") or {}).get("config") or {}).get("budget_seconds")
+    if not isinstance(budget, (int, float)):
+        raise ValueError("no time budget (context.config.budget_seconds)")
+    cutting, calls = set(), {}
+    for rec in doc.get("benchmarks", []):
+        if rec.get("type") != "sweep":
+            continue
+        name = results_io.run_name(rec)
+        match = CUT.match(str(results_io._skip_reason(rec) or ""))
+        if match and "max_dist:" in name:
+            cutting.add(name.rsplit("max_dist:", 1)[0] + "max_dist:" + match.group(1))
+        elif rec.get("run_type") == "iteration" and not results_io._skip_reason(rec):
+            seconds = results_io.record_seconds(rec, ())
+            if seconds is not None:
+                calls.setdefault(name, []).append(seconds)
+    within = [(name, results_io._median(calls[name]), len(calls[name])) for name in sorted(cutting)
+              if calls.get(name) and results_io._median(calls[name]) <= budget]
+    return len(cutting), within
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("file", help="a run_sweep results file made with --rounds 2 or more")
     parser.add_argument("--first-round", type=int, default=0, metavar="N",
                         help="also list the N cells whose first round lay farthest from all their calls")
+    parser.add_argument("--budget-cuts", action="store_true",
+                        help="also list the series ended over the time budget on a cell whose median lies within it")
     args = parser.parse_args()
     path = args.file
     if args.first_round < 0:
         print(f"round_spread.py: --first-round must be 0 or more, not {args.first_round}", file=sys.stderr)
         return 2
     try:
-        cells = cell_rounds(json.loads(Path(path).read_text()))
+        doc = json.loads(Path(path).read_text())
+        cells = cell_rounds(doc)
+        cuts = budget_cuts(doc) if args.budget_cuts else None
     except (OSError, ValueError, AttributeError) as e:
         print(f"round_spread.py: {path}: {e}", file=sys.stderr)
         return 2
@@ -113,6 +145,15 @@ def main():
         print("|---|---|---|---|")
         for offset, adapter, name, medians in first_round_outliers(cells, args.first_round):
             print(f"| {offset:.3f} | {adapter} | {name} | {' / '.join(f'{m * 1e3:.3g}' for m in medians)} |")
+    if cuts is not None:
+        series, within = cuts
+        print()
+        print(f"{series} series ended over the time budget; {len(within)} of them on a cell whose calls' median "
+              "lies within it:")
+        print("| cell | median of its calls, ms | calls |")
+        print("|---|---|---|")
+        for name, median_s, n in within:
+            print(f"| {name} | {median_s * 1e3:.3g} | {n} |")
     return 0
 
 

@@ -68,6 +68,25 @@ class RoundSpreadTest(unittest.TestCase):
                                   capture_output=True, text=True, timeout=60)
             self.assertEqual((proc.returncode, len(proc.stderr.strip().splitlines()), proc.stdout), (2, 1, ""))
 
+    def test_budget_cuts_lists_the_series_ended_on_a_cell_whose_median_lies_within_the_budget(self):
+        def ended(adapter, at, later):
+            name = f"sweep/hollow_cube/filled_sphere/{adapter}/ranged/max_dist:{later:.2f}"
+            return [{"name": name, "run_name": name, "type": "sweep", "adapter": adapter, "run_type": "iteration",
+                     "skipped": f"over budget: 1.7 s at max_dist {at:.2f} > 1 s", "error_occurred": True}]
+        # ours_kdtree: its first round over the budget, the others within: an outlier ended the series.
+        # ann_kdtree: over the budget in every round. vtk_kdtree: ended by an error, not the budget.
+        records = (cell("ours_kdtree", [1700, 1700, 600, 600, 600, 600], 0.2) + ended("ours_kdtree", 0.2, 0.3)
+                   + cell("ann_kdtree", [1500, 1500, 1400, 1400, 1600, 1600], 0.2) + ended("ann_kdtree", 0.2, 0.3)
+                   + cell("vtk_kdtree", [10, 10, 10, 10, 10, 10], 0.2))
+        doc = document(records)
+        doc["context"]["config"]["budget_seconds"] = 1.0
+        series, within = round_spread.budget_cuts(doc)
+        self.assertEqual(series, 2)
+        self.assertEqual(within, [("sweep/hollow_cube/filled_sphere/ours_kdtree/ranged/max_dist:0.20", 0.6, 6)])
+        del doc["context"]["config"]["budget_seconds"]
+        with self.assertRaises(ValueError):
+            round_spread.budget_cuts(doc)
+
     def test_cells_cut_short_and_skipped_cells_are_left_out(self):
         short = cell("ours_kdtree", [10, 11, 10, 11, 10])
         skipped = [{"name": "sweep/x/y/ann_kdtree/ranged/max_dist:0.30", "type": "sweep", "adapter": "ann_kdtree",
