@@ -57,7 +57,8 @@ side A "$a"
 side B "$b"
 echo "# ours_ab: $(date -u +%Y-%m-%dT%H:%M:%SZ); command: $command_line"
 for s in "A $a" "B $b"; do
-  name=${s%% *} rev=${s#* } cxx_var=cxx_${s%% *}
+  name=${s%% *} rev=${s#* }
+  cxx_var=cxx_$name
   if [ -d "$rev" ]; then
     what="folder $rev"
   else
