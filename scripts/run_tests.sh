@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The README's test command: install the dependencies, build the release and the sanitizer presets,
-# and run the whole ctest suite under both; then build the libFuzzer targets and replay their inputs.
+# and run the whole ctest suite under both; then build the libFuzzer targets and replay their inputs; then
+# the test programs again, built for 64-bit Arm and run under an emulator.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
@@ -17,3 +18,5 @@ for preset in release sanitize; do
 done
 echo "=== fuzz: build the libFuzzer targets, replay their seeds and regressions ==="
 ./scripts/fuzz.sh --replay
+echo "=== aarch64: cross-build the test programs, run them under qemu-user ==="
+./scripts/test_aarch64.sh

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# The test programs built for 64-bit Arm and run under qemu-user: our trees' plain C++ paths, the search
+# API's threads on a weakly ordered CPU, and a compiler that fuses multiply-adds unless told not to.
+# Cross-compiled with Debian's g++-aarch64-linux-gnu against Debian's arm64 packages (multiarch); the
+# adapters whose libraries are not installed for arm64 are left out, as on any machine without them.
+# Usage: scripts/test_aarch64.sh [build folder, default build/aarch64]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${1:-build/aarch64}
+if [ "$(uname -m)" = "aarch64" ]; then
+  echo "test_aarch64: this machine is aarch64, and the Release build's tests ran on it natively"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+packages=(g++-aarch64-linux-gnu qemu-user-static libstdc++6:arm64 libgtest-dev:arm64 libssl-dev:arm64)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "test_aarch64: installing ${missing[*]}"
+  dpkg --print-foreign-architectures | grep -qx arm64 || $SUDO dpkg --add-architecture arm64
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# FLANN's and the embedded Python's CMake files sit in folders shared by every architecture and name the
+# host's libraries: off here.
+cmake -S . -B "${build}" -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/aarch64-linux-gnu.cmake \
+      -DCMAKE_BUILD_TYPE=Release -DNNB_WITH_FLANN=OFF -DNNB_WITH_PYTHON=OFF
+jobs=$(nproc 2>/dev/null || echo 2)
+cmake --build "${build}" -j "${jobs}"
+if ! ctest --test-dir "${build}" -j "${jobs}" --output-on-failure --timeout 900; then
+  python3 scripts/print_failed_tests.py "${build}"
+  exit 1
+fi
