@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs every system package the project needs, from Debian. Idempotent: does nothing
 # when all packages are present. See ../shared/DEPENDENCIES.md for the verified list.
+# Usage: scripts/install_deps.sh [PACKAGE ...]   (the given packages instead of the project's list;
+# a package named name:ARCH adds ARCH to dpkg's architectures first, as scripts/test_aarch64.sh needs)
 set -euo pipefail
 
 PACKAGES=(
@@ -14,6 +16,7 @@ PACKAGES=(
   slurm-wlm munge procps valgrind
   clang-14 libclang-rt-14-dev  # the libFuzzer targets (fuzz/)
 )
+if [ $# -gt 0 ]; then PACKAGES=("$@"); fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -27,6 +30,12 @@ fi
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 echo "install_deps: installing ${missing[*]}"
+for p in "${missing[@]}"; do
+  arch=${p#*:}
+  if [ "${arch}" != "${p}" ] && ! dpkg --print-foreign-architectures | grep -qx "${arch}"; then
+    $SUDO dpkg --add-architecture "${arch}"
+  fi
+done
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
