@@ -15,10 +15,10 @@ import sys
 import tempfile
 
 
-def instructions(command, directory, out_path):
+def instructions(command, directory, out_path, extra_flags=()):
     args = shlex.split(command)
     at = args.index("-o")
-    subprocess.run(args[:at] + ["-o", out_path] + args[at + 2:], cwd=directory, check=True)
+    subprocess.run(args[:at] + list(extra_flags) + ["-o", out_path] + args[at + 2:], cwd=directory, check=True)
     listing = subprocess.run(["objdump", "-d", "--no-show-raw-insn", out_path],
                              capture_output=True, text=True, check=True).stdout
     return hashlib.sha256(listing.split("\n", 3)[3].encode()).hexdigest()
@@ -40,8 +40,7 @@ def main():
                 continue
             seen.add(unit)
             plain = instructions(entry["command"], entry["directory"], out_path)
-            at = entry["command"].index(" -o ")
-            flagged = instructions(entry["command"][:at] + " " + flag + entry["command"][at:], entry["directory"], out_path)
+            flagged = instructions(entry["command"], entry["directory"], out_path, [flag])
             differing += plain != flagged
             print("same" if plain == flagged else "DIFF", unit, flush=True)
     print(f"translation units: {len(seen)} differing: {differing}")
