@@ -29,6 +29,10 @@
 #include <sys/mman.h>
 #include <unistd.h>
 #endif
+#if defined(OURS_WIDE_SIMD)
+#include <cpuid.h>
+#include <cstdlib>
+#endif
 
 namespace {
 
@@ -581,6 +585,26 @@ TEST(OursScan, EveryVectorPathComputesDistancesAsSqDistM2) {
     }
   }
 }
+
+#if defined(OURS_WIDE_SIMD)
+// The scans take the AVX2 path exactly where the CPU has AVX2 and the OS saves its registers (CPUID leaves
+// 1 and 7, XGETBV), asked here without the compiler's builtin. NNB_EXPECT_AVX2=0 or 1 also says which the
+// CPU must be: ctest's run on an emulated CPU without AVX sets 0, so that its scans were the SSE2 path's.
+TEST(OursScan, TheAvx2PathIsChosenByTheCpu) {
+  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+  bool avx2 = false;
+  if (__get_cpuid(1, &eax, &ebx, &ecx, &edx) && (ecx & bit_OSXSAVE) && (ecx & bit_AVX)) {
+    unsigned xcr0_lo = 0, xcr0_hi = 0;
+    __asm__("xgetbv" : "=a"(xcr0_lo), "=d"(xcr0_hi) : "c"(0));
+    const bool ymm_saved = (xcr0_lo & 6u) == 6u;  // the SSE and AVX state
+    if (ymm_saved && __get_cpuid_count(7, 0, &eax, &ebx, &ecx, &edx)) avx2 = (ebx & bit_AVX2) != 0;
+  }
+  EXPECT_EQ(ours::detail::kHasAvx2, avx2);
+  if (const char* expected = std::getenv("NNB_EXPECT_AVX2")) {
+    EXPECT_EQ(avx2, std::string(expected) == "1") << "NNB_EXPECT_AVX2=" << expected;
+  }
+}
+#endif
 
 // Small and large batches: the same curve, each sorted in three passes.
 TEST(QueryOrder, MortonOrderIsAPermutationAlongTheCurve) {
