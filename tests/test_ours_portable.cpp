@@ -112,7 +112,8 @@ void expect_superset(const Tree& tree, const BruteForce& truth, const Points& qu
   std::size_t missing = 0;
   tree.knn_batch(queries.data(), queries.size() / 3, k, limit_sq_m2, buffers,
                  [&](std::size_t i, const std::vector<ours::Neighbour<float>>& got) {
-    for (const auto& [sq, index] : truth.answer(i, k, limit_sq_m2)) {
+    for (const auto& want : truth.answer(i, k, limit_sq_m2)) {
+      const auto index = want.second;  // a lambda may capture a structured binding only from C++20
       missing += std::none_of(got.begin(), got.end(), [&](const auto& n) { return n.index == index; });
     }
   });

@@ -21,7 +21,6 @@
 #include <iterator>
 #include <limits>
 #include <memory>
-#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -181,9 +180,9 @@ class BoostRTree final : public SearchIndex {
     }
     const typename Variant::Parameters parameters(max_elements_);
     if (bulk_) {
-      tree_.emplace(values.begin(), values.end(), parameters);
+      tree_ = std::make_unique<Tree>(values.begin(), values.end(), parameters);
     } else {
-      tree_.emplace(parameters);
+      tree_ = std::make_unique<Tree>(parameters);
       for (const auto& value : values) tree_->insert(value);
     }
     index_bytes_ = count_node_bytes();
@@ -264,7 +263,9 @@ class BoostRTree final : public SearchIndex {
 
   std::size_t max_elements_ = 16;
   bool bulk_ = true;
-  std::optional<Tree> tree_;
+  // Not std::optional: the dynamic parameters have no default constructor, and clang evaluates the
+  // rtree's default argument when std::optional asks whether it is default-constructible.
+  std::unique_ptr<Tree> tree_;
   std::size_t index_bytes_ = 0;
 };
 

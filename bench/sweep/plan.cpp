@@ -130,7 +130,7 @@ std::vector<PlannedAdapter> plan_adapters(const Experiment& e) {
   };
   std::vector<PlannedAdapter> planned;
   for (const auto& name : e.adapters) {
-    PlannedAdapter a{name, make_adapter(name)->info(), {}};
+    PlannedAdapter a{name, make_adapter(name)->info(), {}, {}};
     if (wants(SearchKind::ranged)) {
       a.kinds.push_back(SearchKind::ranged);
       a.ranged_strategies = a.info.strategies(SearchKind::ranged);
