@@ -6,6 +6,7 @@ tree cannot be shown), runs that overlapped in time on the same host, and record
 are refused unless the caller allows them; an allowed problem is kept in `marks` so the output can say so."""
 import datetime
 import re
+import shlex
 import sys
 from pathlib import Path
 
@@ -68,14 +69,29 @@ def interval(context):
 
 
 RUN_LOG = "reference_run_log.txt"
-_OUTPUT = re.compile(r"--(?:out|benchmark_out|describe-real-pairs)'?[ =]'?([^' ]+)")
+_OUTPUT_FLAGS = ("--out", "--benchmark_out", "--describe-real-pairs")
 _LOG_LINE = re.compile(r"^(\S+) (start|end|killed) (\S+?):?(?: (.*?))?(?: \| load.*)?$")
 
 
 def output_path(command):
-    """The file a program's command line writes (--out, --benchmark_out, --describe-real-pairs), or None."""
-    match = _OUTPUT.search(" ".join(map(str, command)) if isinstance(command, list) else str(command or ""))
-    return match.group(1) if match and match.group(1) != "-" else None
+    """The file a program's command line writes (--out, --benchmark_out, --describe-real-pairs), or None. A
+    command line is split as the shell would (the programs and the reference run quote each word, so that a
+    path may hold spaces); a list is taken as its words."""
+    words = [str(w) for w in command] if isinstance(command, list) else _shell_words(str(command or ""))
+    for i, word in enumerate(words):
+        for flag in _OUTPUT_FLAGS:
+            value = words[i + 1] if word == flag and i + 1 < len(words) else \
+                word[len(flag) + 1:] if word.startswith(flag + "=") else None
+            if value is not None:
+                return value if value not in ("", "-") else None
+    return None
+
+
+def _shell_words(line):
+    try:
+        return shlex.split(line)
+    except ValueError:  # an unbalanced quote: words as spaces part them
+        return line.split()
 
 
 def run_log_sittings(log_text):

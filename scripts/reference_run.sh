@@ -197,6 +197,12 @@ built=$("$bench/nns_query" --version 2>/dev/null | sed -n 's/.*(git \([^,]*\),.*
 [ "$built" = "$commit" ] || die "$bench was built from ${built:-an unknown commit}, not the clean HEAD $commit: build it (or drop --no-build)"
 
 log() { echo "$(now) $* | load $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/log.txt"; }
+# A command as the programs record theirs, each word in single quotes, so that a path with a space stays one word.
+quoted() {
+  local word line=""
+  for word in "$@"; do line+=" '${word//\'/\'\\\'\'}'"; done
+  printf '%s' "${line# }"
+}
 
 # The machine's timing noise (scripts/machine_noise.py), logged; before a sitting, a spread over the limit
 # stops the run.
@@ -250,7 +256,7 @@ for s in "${selected[@]}"; do
   fi
   command_of "$s"
   mkdir -p "$(dirname "$out/$(output_of "$s")")"
-  log "start $s at $(git rev-parse --short HEAD), tree clean: ${cmd[*]}"
+  log "start $s at $(git rev-parse --short HEAD), tree clean: $(quoted "${cmd[@]}")"
   rc=0
   if [ "$s" = micro_nns ]; then
     run_micro_nns || rc=$?

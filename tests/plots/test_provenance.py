@@ -8,6 +8,7 @@ from pathlib import Path
 
 import fixtures
 import findings
+import provenance
 import results_io
 
 FINDINGS = fixtures.PLOTS_DIR / "findings.py"
@@ -144,6 +145,17 @@ class ProvenanceTest(unittest.TestCase):
         proc = run_findings(a, b, "--out", self.out)
         self.assertEqual(proc.returncode, 0, proc.stderr)
         self.assertIn("2 sittings, each checked for overlap from the run's log", self.out.read_text())
+
+    def test_an_output_path_with_spaces_is_read_whole(self):
+        self.assertEqual(provenance.output_path("'run_sweep' '--out' '/my runs/a.json'"), "/my runs/a.json")
+        self.assertEqual(provenance.output_path("'micro_nns' '--benchmark_out=/my runs/m.json'"), "/my runs/m.json")
+        self.assertEqual(provenance.output_path("run_sweep --out /run/a.json"), "/run/a.json")
+        self.assertIsNone(provenance.output_path("'nns_query' '--out' '-'"))
+        log = ("2024-01-01T09:00:00+00:00 start a at 0123456, tree clean: 'run_sweep' '--out' '/my runs/a.json'"
+               " | load 1.0 1.0 1.0\n2024-01-01T09:10:00+00:00 end a rc=0 | load 1.0 1.0 1.0\n"
+               "2024-01-01T09:10:00+00:00 start b at 0123456, tree clean: 'run_sweep' '--out' '/my runs/b.json'"
+               " | load 1.0 1.0 1.0\n2024-01-01T09:20:00+00:00 end b rc=0 | load 1.0 1.0 1.0\n")
+        self.assertEqual(sorted(provenance.run_log_sittings(log)), ["/my runs/a.json", "/my runs/b.json"])
 
     def test_icp_experiment_name_is_read(self):
         f = fixtures.write(self.dir / "icp.json", "x", fixtures.icp_real_records())

@@ -22,7 +22,9 @@ run_sweep=$(realpath "$1")
 run_icp="$(dirname "${run_sweep}")/run_icp"
 build=$(dirname "$(dirname "${run_sweep}")")
 work=$(realpath -m "$2")
-state="${work}/state"   # daemons' configuration, key, sockets, spool and logs: removed on exit
+# The daemons' configuration, key, sockets, spool and logs, removed on exit: in a short folder of their own, as
+# slurm.conf's values end at a space and a socket's path at 107 bytes, whatever folder the build is in.
+state=""
 results="${work}/results"
 shards=4
 pids=()       # slurmctld and slurmd
@@ -67,6 +69,7 @@ stop_job_processes() {
 cleanup() {
   local status=$?
   trap - EXIT
+  set +e  # every step runs: a failed one (show_logs ends on a missing log) must not leave the daemons running
   [ -z "${watchdog}" ] || kill "${watchdog}" 2>/dev/null || true
   if [ -f "${state}/slurm.conf" ]; then
     scancel --full --quiet --user root 2>/dev/null || true
@@ -83,6 +86,8 @@ cleanup() {
   exit "${status}"
 }
 trap cleanup EXIT
+state=$(mktemp -d /tmp/nnb-slurm.XXXXXX)
+chmod 0755 "${state}"   # munged runs as munge
 trap 'exit 130' INT TERM
 # ctest ends a test past its time-out with SIGKILL, which no trap sees: give up first, and clean up.
 watchdog_seconds=${NNB_SLURM_TEST_SECONDS:-780}
@@ -173,6 +178,9 @@ start_slurm() {
   pids+=($!)
   local deadline=$((SECONDS + 30))
   until sinfo -h -o %T 2>/dev/null | grep -qx idle; do
+    # A daemon that refused its configuration exits at once; sinfo would wait on it for a minute a call.
+    kill -0 "${pids[-2]}" 2>/dev/null || fail "slurmctld exited (its stderr above, its log below)"
+    kill -0 "${pids[-1]}" 2>/dev/null || fail "slurmd exited (its stderr above, its log below)"
     [ ${SECONDS} -lt ${deadline} ] || fail "the node did not become idle: $(sinfo 2>&1)"
     sleep 0.2
   done
