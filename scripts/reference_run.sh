@@ -28,6 +28,12 @@ src=$here out="" until="" only="" build=1 list=0 install=0 from_pending=0 end_ea
 die() { echo "reference_run: error: $*" >&2; exit 2; }
 # Microseconds make each log line its event's alone, so --install can skip the lines a clone already has.
 now() { date +%Y-%m-%dT%H:%M:%S.%6N%:z; }
+# A command as the programs record theirs, each word in single quotes: a path with a space stays one word.
+quoted() {
+  local word line=""
+  for word in "$@"; do line+=" '${word//\'/\'\\\'\'}'"; done
+  printf '%s' "${line# }"
+}
 while [ $# -gt 0 ]; do
   case $1 in
     --out) out=${2:?}; shift ;;
@@ -168,7 +174,7 @@ cd "$src"
 if [ $list = 1 ]; then
   for s in "${selected[@]}"; do
     command_of "$s"; state=to-do; [ -f "$out/.done/$s" ] && state="done"
-    printf '%s\t%s\t%s\n' "$s" "$state" "${cmd[*]}"
+    printf '%s\t%s\t%s\n' "$s" "$state" "$(quoted "${cmd[@]}")"
   done
   exit 0
 fi
@@ -197,12 +203,6 @@ built=$("$bench/nns_query" --version 2>/dev/null | sed -n 's/.*(git \([^,]*\),.*
 [ "$built" = "$commit" ] || die "$bench was built from ${built:-an unknown commit}, not the clean HEAD $commit: build it (or drop --no-build)"
 
 log() { echo "$(now) $* | load $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/log.txt"; }
-# A command as the programs record theirs, each word in single quotes, so that a path with a space stays one word.
-quoted() {
-  local word line=""
-  for word in "$@"; do line+=" '${word//\'/\'\\\'\'}'"; done
-  printf '%s' "${line# }"
-}
 
 # The machine's timing noise (scripts/machine_noise.py), logged; before a sitting, a spread over the limit
 # stops the run.
@@ -220,7 +220,7 @@ noise() {
 run_micro_nns() {  # its JSON lacks the load and the tree state: a header and footer in micro_nns.txt say them
   mkdir -p "$out/micro_nns"
   {
-    echo "# ${cmd[*]}"
+    echo "# $(quoted "${cmd[@]}")"
     echo "# $("$bench/micro_nns" --version), tree clean; nothing else running"
     echo "# before: $(uptime)"
     "${cmd[@]}" 2>&1

@@ -22,9 +22,7 @@ run_sweep=$(realpath "$1")
 run_icp="$(dirname "${run_sweep}")/run_icp"
 build=$(dirname "$(dirname "${run_sweep}")")
 work=$(realpath -m "$2")
-# The daemons' configuration, key, sockets, spool and logs, removed on exit: in a short folder of their own, as
-# slurm.conf's values end at a space and a socket's path at 107 bytes, whatever folder the build is in.
-state=""
+state=""      # the daemons' configuration, key, sockets, spool and logs (made below, removed on exit)
 results="${work}/results"
 shards=4
 pids=()       # slurmctld and slurmd
@@ -86,6 +84,8 @@ cleanup() {
   exit "${status}"
 }
 trap cleanup EXIT
+# A short folder of their own, whatever folder the build is in: slurm.conf's values end at a space, and a
+# socket's path at 107 bytes.
 state=$(mktemp -d /tmp/nnb-slurm.XXXXXX)
 chmod 0755 "${state}"   # munged runs as munge
 trap 'exit 130' INT TERM
