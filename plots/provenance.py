@@ -79,11 +79,10 @@ def output_path(command):
     path may hold spaces); a list is taken as its words."""
     words = [str(w) for w in command] if isinstance(command, list) else _shell_words(str(command or ""))
     for i, word in enumerate(words):
-        for flag in _OUTPUT_FLAGS:
-            value = words[i + 1] if word == flag and i + 1 < len(words) else \
-                word[len(flag) + 1:] if word.startswith(flag + "=") else None
-            if value is not None:
-                return value if value not in ("", "-") else None
+        flag, equals, value = word.partition("=")
+        if flag in _OUTPUT_FLAGS:
+            value = value if equals else (words[i + 1] if i + 1 < len(words) else "")
+            return value if value not in ("", "-") else None
     return None
 
 
