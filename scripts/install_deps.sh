@@ -29,7 +29,13 @@ if [ ${#missing[@]} -eq 0 ]; then
 fi
 
 SUDO=""
-if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+if [ "$(id -u)" -ne 0 ]; then
+  if ! command -v sudo > /dev/null; then
+    echo "install_deps: missing ${missing[*]}: installing them needs root, and there is no sudo here" >&2
+    exit 1
+  fi
+  SUDO="sudo"
+fi
 echo "install_deps: installing ${missing[*]}"
 for p in "${missing[@]}"; do
   arch=${p#*:}

@@ -279,8 +279,10 @@ class BadInput(unittest.TestCase):
         real_data.skip_unless_present(self)
         real = str(real_data.data_dir())
         copy = os.path.join(self.dir, "data")
-        shutil.copytree(os.path.join(real, "bunny-stanford"), os.path.join(copy, "bunny-stanford"))
-        target = os.path.join(copy, "bunny-stanford", "bun000.ply")
+        pair = os.path.join(copy, "bunny-stanford")
+        shutil.copytree(os.path.join(real, "bunny-stanford"), pair)
+        os.chmod(pair, 0o755)  # the data may be read-only, and only root could then empty the copy
+        target = os.path.join(pair, "bun000.ply")
         os.chmod(target, 0o644)
         with open(target, "r+b") as f:
             f.seek(-3, os.SEEK_END)

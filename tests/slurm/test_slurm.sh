@@ -7,14 +7,11 @@
 # merged to the runs of a single process with the same poses.
 # Every daemon it started is stopped and its state removed on exit, also when it fails.
 #
-#   tests/slurm/test_slurm.sh RUN_SWEEP WORKDIR        (as root, or with passwordless sudo)
+# Any user can run it: the daemons run as that user (munged as munge when it is root), and jobs run as it.
+#
+#   tests/slurm/test_slurm.sh RUN_SWEEP WORKDIR
 set -euo pipefail
 
-if [ "$(id -u)" -ne 0 ]; then
-  if sudo -n true 2>/dev/null; then exec sudo -n -E "$0" "$@"; fi
-  echo "test_slurm: FAIL: must run as root (or with passwordless sudo): it starts munged, slurmctld and slurmd" >&2
-  exit 1
-fi
 [ $# -eq 2 ] || { echo "usage: $0 RUN_SWEEP WORKDIR" >&2; exit 2; }
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -33,10 +30,16 @@ fail() {
   echo "test_slurm: FAIL: $*" >&2
   exit 1
 }
-for tool in munged slurmctld slurmd sbatch squeue scancel sinfo; do
-  command -v "${tool}" >/dev/null || [ -x "/usr/sbin/${tool}" ] ||
-    fail "${tool} not found: install slurm-wlm and munge (scripts/install_deps.sh)"
-done
+# The daemons live in /usr/sbin, which an ordinary user's PATH may lack.
+daemon() {
+  command -v "$1" || { [ -x "/usr/sbin/$1" ] && echo "/usr/sbin/$1"; } ||
+    fail "$1 not found: install slurm-wlm and munge (scripts/install_deps.sh)"
+}
+munged=$(daemon munged)
+slurmctld=$(daemon slurmctld)
+slurmd=$(daemon slurmd)
+for tool in sbatch squeue scancel sinfo; do daemon "${tool}" > /dev/null; done
+user=$(id -un)
 
 show_logs() {
   for log in "${state}"/*.log "${state}"/munge/*.log "${results}"/logs/*.log; do
@@ -70,7 +73,7 @@ cleanup() {
   set +e  # every step runs: a failed one (show_logs ends on a missing log) must not leave the daemons running
   [ -z "${watchdog}" ] || kill "${watchdog}" 2>/dev/null || true
   if [ -f "${state}/slurm.conf" ]; then
-    scancel --full --quiet --user root 2>/dev/null || true
+    scancel --full --quiet --user "${user}" 2>/dev/null || true
     for _ in $(seq 50); do [ -z "$(squeue -h 2>/dev/null)" ] && break; sleep 0.1; done
     stop_job_processes
   fi
@@ -110,12 +113,17 @@ wait_empty() {
   done
 }
 
+# munged refuses a key others can read, and root runs it as Debian's munge user.
 start_munge() {
-  install -d -o munge -g munge -m 0755 "${state}/munge"
+  local as_user=()
+  install -d -m 0755 "${state}/munge"
   head -c 1024 /dev/urandom > "${state}/munge/munge.key"
-  chown munge:munge "${state}/munge/munge.key"
   chmod 0400 "${state}/munge/munge.key"
-  setsid runuser -u munge -- /usr/sbin/munged -F --socket="${state}/munge/munge.socket" \
+  if [ "$(id -u)" -eq 0 ]; then
+    chown -R munge:munge "${state}/munge"
+    as_user=(runuser -u munge --)
+  fi
+  setsid "${as_user[@]}" "${munged}" -F --socket="${state}/munge/munge.socket" \
     --key-file="${state}/munge/munge.key" --pid-file="${state}/munge/munged.pid" --log-file="${state}/munge/munged.log" \
     --seed-file="${state}/munge/munged.seed" &
   munge_pid=$!
@@ -127,8 +135,8 @@ start_munge() {
 write_slurm_conf() {
   local node cpus memory
   node=$(hostname -s)
-  cpus=$(slurmd -C | sed -n 's/.*CPUs=\([0-9]*\).*/\1/p' | head -n 1)
-  memory=$(slurmd -C | sed -n 's/.*RealMemory=\([0-9]*\).*/\1/p' | head -n 1)
+  cpus=$("${slurmd}" -C | sed -n 's/.*CPUs=\([0-9]*\).*/\1/p' | head -n 1)
+  memory=$("${slurmd}" -C | sed -n 's/.*RealMemory=\([0-9]*\).*/\1/p' | head -n 1)
   [ "${memory}" -gt 2000 ] && memory=2000
   mkdir -p "${state}/ctld" "${state}/spool"
   # Another Slurm on this machine would leave our daemons unreachable until the time-out: say so at once.
@@ -141,7 +149,8 @@ for port in (16817, 16818):
   cat > "${state}/slurm.conf" <<EOF
 ClusterName=nnbtest
 SlurmctldHost=localhost
-SlurmUser=root
+SlurmUser=${user}
+SlurmdUser=${user}
 AuthType=auth/munge
 AuthInfo=socket=${state}/munge/munge.socket
 SlurmctldPort=16817
@@ -172,9 +181,9 @@ EOF
 }
 
 start_slurm() {
-  setsid slurmctld -D -f "${SLURM_CONF}" &
+  setsid "${slurmctld}" -D -f "${SLURM_CONF}" &
   pids+=($!)
-  setsid slurmd -D -f "${SLURM_CONF}" &
+  setsid "${slurmd}" -D -f "${SLURM_CONF}" &
   pids+=($!)
   local deadline=$((SECONDS + 30))
   until sinfo -h -o %T 2>/dev/null | grep -qx idle; do
