@@ -16,7 +16,9 @@ build="$root/build/fuzz"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNNB_FUZZ=ON \
       -DNNB_BUILD_TESTS=OFF -DNNB_BUILD_BENCH=OFF \
       -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 >/dev/null
-cmake --build "$build" -j "$(nproc 2>/dev/null || echo 1)" --target $(printf 'fuzz_%s ' "${targets[@]}")
+. "$root/scripts/jobs.sh"
+jobs=$(build_jobs)
+cmake --build "$build" -j "${jobs}" --target $(printf 'fuzz_%s ' "${targets[@]}")
 
 # run_fuzzer TARGET LOG ARGS...: the target on its seeds and regressions (after ARGS' own folders), from the
 # build folder, its output in LOG. rss_limit: a loader that allocates what a header claims shows up as an

@@ -195,8 +195,10 @@ if [ -n "$until" ]; then deadline=$(date -d "$until" +%s) || die "--until '$unti
 if [ $build = 1 ]; then
   ./scripts/install_deps.sh
   . scripts/anchors.sh
+  . scripts/jobs.sh
+  jobs=$(build_jobs)
   cmake --preset release
-  cmake --build --preset release -j "$(nproc 2>/dev/null || echo 2)"
+  cmake --build --preset release -j "${jobs}"
 fi
 # The binaries name the commit they were built from: a build older than HEAD would mislabel every file.
 built=$("$bench/nns_query" --version 2>/dev/null | sed -n 's/.*(git \([^,]*\),.*/\1/p')

@@ -9,8 +9,10 @@ cd "$(dirname "$0")/.."
 experiment="${EXPERIMENT:-quick}"
 ./scripts/install_deps.sh
 . scripts/anchors.sh
+. scripts/jobs.sh
+jobs=$(build_jobs)
 cmake --preset release
-cmake --build --preset release -j "$(nproc 2>/dev/null || echo 2)"
+cmake --build --preset release -j "${jobs}"
 
 out="results/sweep_${experiment}.json"
 resume=()

@@ -8,7 +8,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
 . scripts/anchors.sh
-jobs=$(nproc 2>/dev/null || echo 2)
+. scripts/jobs.sh
+jobs=$(build_jobs)
 for preset in release clang sanitize; do
   echo "=== ${preset}: configure, build, test ==="
   cmake --preset "${preset}"

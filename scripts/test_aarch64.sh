@@ -18,7 +18,8 @@ fi
 # host's libraries: off here.
 cmake -S . -B "${build}" -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/aarch64-linux-gnu.cmake \
       -DCMAKE_BUILD_TYPE=Release -DNNB_WITH_FLANN=OFF -DNNB_WITH_PYTHON=OFF
-jobs=$(nproc 2>/dev/null || echo 2)
+. scripts/jobs.sh
+jobs=$(build_jobs)
 cmake --build "${build}" -j "${jobs}"
 if ! ctest --test-dir "${build}" -j "${jobs}" --output-on-failure --timeout 900; then
   python3 scripts/print_failed_tests.py "${build}"
