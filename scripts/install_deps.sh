@@ -14,6 +14,7 @@ PACKAGES=(
   pybind11-dev python3-dev python3-scipy python3-pykdtree python3-sklearn
   python3 python3-matplotlib python3-numpy python3-plotly chromium
   slurm-wlm munge procps valgrind
+  locales  # a test compiles a locale whose decimal point is a comma (localedef's sources)
   qemu-user-static  # tests on CPUs unlike this one (x86 without AVX; 64-bit Arm)
   clang-14 libclang-rt-14-dev  # the libFuzzer targets (fuzz/)
 )

@@ -9,6 +9,7 @@
 #
 #   scripts/micro_ab.sh [--noise] A_BINARY B_BINARY ROUNDS FILTER [FILTER...] > results/ab/NAME.txt
 set -euo pipefail
+export LC_ALL=C  # awk reads and prints the times with a decimal point, as micro_nns writes them, in any locale
 die() { echo "micro_ab: error: $*" >&2; exit 2; }
 noise=0
 if [ "${1:-}" = --noise ]; then noise=1; shift; fi

@@ -1,19 +1,35 @@
 #!/usr/bin/env python3
 """scripts/micro_ab.sh: one micro_nns as both A and B on two cheap benchmarks gives one row each, with both
 times and their ratio, and the header names the binaries and the load; with --noise each row also has A's second
-run and A2/A; bad arguments exit 2 with one line.
+run and A2/A; bad arguments exit 2 with one line. The first A/B runs under a locale whose decimal point is a comma
+(German, compiled into a scratch folder: no root needed), as a user's may be.
 
 Usage: test_micro_ab.py MICRO_AB_SH MICRO_NNS. Never a timing: the ratio is only checked to be a number."""
+import os
 import re
 import subprocess
 import sys
+import tempfile
 
 FILTER = "^(Build/fig3/ours_kdtree|Ranged1NN/fig3/ours_kdtree/0.10)$"
 
 
+def comma_locale(folder):
+    """The environment of a German locale compiled into FOLDER, after checking that awk reads "2.5" as 2 in it."""
+    subprocess.run(["localedef", "-i", "de_DE", "-f", "UTF-8", os.path.join(folder, "de_DE.UTF-8")], check=True,
+                   capture_output=True)
+    env = dict(os.environ, LOCPATH=folder, LC_ALL="de_DE.UTF-8")
+    doubled = subprocess.run(["awk", "{print $1 * 2}"], input="2.5\n", capture_output=True, text=True, env=env)
+    if doubled.stdout.strip() != "4":
+        raise RuntimeError(f"the comma locale is not in force: awk doubled 2.5 to {doubled.stdout.strip()!r}")
+    return env
+
+
 def main(script, micro_nns):
     failures = []
-    proc = subprocess.run([script, micro_nns, micro_nns, "1", FILTER], capture_output=True, text=True, timeout=280)
+    with tempfile.TemporaryDirectory() as folder:
+        proc = subprocess.run([script, micro_nns, micro_nns, "1", FILTER], capture_output=True, text=True,
+                              timeout=280, env=comma_locale(folder))
     out = proc.stdout
     if proc.returncode != 0:
         failures.append(f"exit {proc.returncode}: {proc.stderr[-500:]}")
