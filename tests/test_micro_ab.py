@@ -15,13 +15,15 @@ FILTER = "^(Build/fig3/ours_kdtree|Ranged1NN/fig3/ours_kdtree/0.10)$"
 
 
 def comma_locale(folder):
-    """The environment of a German locale compiled into FOLDER, after checking that awk reads "2.5" as 2 in it."""
+    """The environment of a German locale compiled into FOLDER, after checking that its decimal point is a comma
+    there (Debian's awk, mawk, then reads "2.5" as 2; gawk reads it as 2.5 in any locale)."""
     subprocess.run(["localedef", "-i", "de_DE", "-f", "UTF-8", os.path.join(folder, "de_DE.UTF-8")], check=True,
                    capture_output=True)
     env = dict(os.environ, LOCPATH=folder, LC_ALL="de_DE.UTF-8")
-    doubled = subprocess.run(["awk", "{print $1 * 2}"], input="2.5\n", capture_output=True, text=True, env=env)
-    if doubled.stdout.strip() != "4":
-        raise RuntimeError(f"the comma locale is not in force: awk doubled 2.5 to {doubled.stdout.strip()!r}")
+    point = subprocess.run([sys.executable, "-c", 'import locale; locale.setlocale(locale.LC_ALL, "");'
+                            'print(locale.localeconv()["decimal_point"])'], capture_output=True, text=True, env=env)
+    if point.stdout.strip() != ",":
+        raise RuntimeError(f"the comma locale is not in force: decimal point {point.stdout.strip()!r} {point.stderr}")
     return env
 
 
