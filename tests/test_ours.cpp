@@ -184,31 +184,51 @@ std::vector<Variant> variants() {
   return all;
 }
 
+// One query kind at one limit: knn (max_dist_m infinite), ranged, or radius (k 0).
+struct QueryCase {
+  int k;
+  double max_dist_m;
+  std::string label;
+  Neighbours expected;
+  void run(const nnb::SearchIndex& index, const Cloud& queries, Neighbours& out) const {
+    if (k == 0) index.radius(queries, max_dist_m, out);
+    else if (std::isinf(max_dist_m)) index.knn(queries, k, out);
+    else index.ranged(queries, k, max_dist_m, out);
+  }
+};
+
+// Every query kind at every limit, brute force's answers computed once for all variants.
+std::vector<QueryCase> brute_force_cases(const Cloud& model, const Cloud& queries, double extent_m) {
+  std::vector<QueryCase> cases;
+  const double unlimited = std::numeric_limits<double>::infinity();
+  for (int k : {1, 2, 4, 9, 40}) {
+    cases.push_back({k, unlimited, "knn k=" + std::to_string(k), {}});
+    for (double fraction : {0.0, 0.01, 0.1, 0.5}) {
+      const double max_dist_m = fraction * extent_m;
+      cases.push_back({k, max_dist_m, "ranged k=" + std::to_string(k) + " d=" + std::to_string(max_dist_m), {}});
+    }
+  }
+  for (double fraction : {0.0, 0.02, 0.2}) {
+    cases.push_back({0, fraction * extent_m, "radius " + std::to_string(fraction * extent_m), {}});
+  }
+  auto brute = nnb::make_adapter("brute_force");
+  brute->build(model);
+  for (auto& c : cases) c.run(*brute, queries, c.expected);
+  return cases;
+}
+
 // Every variant, every query kind, against brute force; the limits scale with the cloud's extent.
 void check_all(const Cloud& model, double extent_m) {
   const Cloud queries = scan_then_random(queries_for(model, extent_m, 240));
-  auto brute = nnb::make_adapter("brute_force");
-  brute->build(model);
+  const std::vector<QueryCase> cases = brute_force_cases(model, queries, extent_m);
   for (const auto& v : variants()) {
     SCOPED_TRACE(v.label());
     auto index = nnb::make_adapter(v.adapter, v.params);
     index->build(model);
-    Neighbours expected, got;
-    for (int k : {1, 2, 4, 9, 40}) {
-      brute->knn(queries, k, expected);
-      index->knn(queries, k, got);
-      ASSERT_EQ("", exact_mismatch(model, queries, expected, got, true)) << "knn k=" << k;
-      for (double fraction : {0.0, 0.01, 0.1, 0.5}) {
-        const double max_dist_m = fraction * extent_m;
-        brute->ranged(queries, k, max_dist_m, expected);
-        index->ranged(queries, k, max_dist_m, got);
-        ASSERT_EQ("", exact_mismatch(model, queries, expected, got, true)) << "ranged k=" << k << " d=" << max_dist_m;
-      }
-    }
-    for (double fraction : {0.0, 0.02, 0.2}) {
-      brute->radius(queries, fraction * extent_m, expected);
-      index->radius(queries, fraction * extent_m, got);
-      ASSERT_EQ("", exact_mismatch(model, queries, expected, got, false)) << "radius " << fraction * extent_m;
+    Neighbours got;
+    for (const auto& c : cases) {
+      c.run(*index, queries, got);
+      ASSERT_EQ("", exact_mismatch(model, queries, c.expected, got, c.k != 0)) << c.label;
     }
   }
 }
@@ -829,6 +849,9 @@ TEST(OursAdapters, GraphHintsGiveThePlainRows) {
     for (std::size_t q = 0; q < hints.size(); ++q) {
       hints[q] = q % 5 == 0 ? nnb::kNoHint : q % 5 == 1 ? pick(rng) : nearest.indices[nearest.offsets[q]];
     }
+    const std::array<double, 3> limits_m{0.01, 0.3, 5.0};
+    std::array<Neighbours, 3> expected;
+    for (std::size_t d = 0; d < limits_m.size(); ++d) brute->ranged(queries, 1, limits_m[d], expected[d]);
     for (const char* adapter : {"ours_kdtree", "ours_octree"}) {
       for (const char* scalar : {"double", "float"}) {
         for (const int threads : {1, 2}) {
@@ -837,12 +860,12 @@ TEST(OursAdapters, GraphHintsGiveThePlainRows) {
           index->set_threads(threads);
           index->build(model);
           ASSERT_TRUE(index->info().uses_hints);
-          for (const double max_dist_m : {0.01, 0.3, 5.0}) {
-            Neighbours plain, hinted, expected;
+          for (std::size_t d = 0; d < limits_m.size(); ++d) {
+            const double max_dist_m = limits_m[d];
+            Neighbours plain, hinted;
             index->ranged(queries, 1, max_dist_m, plain);
             index->ranged_hinted(queries, max_dist_m, hints, hinted);
-            brute->ranged(queries, 1, max_dist_m, expected);
-            ASSERT_EQ("", exact_mismatch(model, queries, expected, hinted, true)) << max_dist_m << " m";
+            ASSERT_EQ("", exact_mismatch(model, queries, expected[d], hinted, true)) << max_dist_m << " m";
             EXPECT_TRUE(hinted.offsets == plain.offsets && hinted.indices == plain.indices &&
                         hinted.sq_dists == plain.sq_dists)
                 << "hints changed the rows at " << max_dist_m << " m";
