@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Tests of run_sweep, run on tiny synthetic data: test_run_sweep.py RUN_SWEEP CASE WORKDIR.
 
-Cases: fields, resume, rounds, budget, bad_input, hostile_values, files, isolation, quick_tiny, agreement,
+Cases: fields, resume, rounds, budget, bad_input, hostile_values, files, isolation, quick_tiny,
 scale_memory, scale_budget, shards. Each exits non-zero with a message on failure.
 """
 import json
@@ -495,6 +495,8 @@ def case_rounds():
 
 
 def case_quick_tiny():
+    """The quick experiment on tiny data: every adapter's cells, and every exact adapter finds what brute
+    force finds in every cell."""
     work = fresh_workdir()
     out = work / "quick.json"
     run(["--experiment", "quick", "--points", "500", "--out", str(out)])
@@ -514,15 +516,6 @@ def case_quick_tiny():
             expected = (1 if kind == "knn" else dists) if offered else 0
             check(kinds.count(kind) == expected, f"{name}: {kinds.count(kind)} {kind} cells, expected {expected}")
         check(any(r["type"] == "build" and r["adapter"] == name for r in recs), f"{name}: no build record")
-    print(f"{sum(r.get('agrees') is False for r in recs)} disagreements (asserted by the agreement case)")
-
-
-def case_agreement():
-    """Every exact adapter finds what brute force finds, in every cell of the quick experiment."""
-    work = fresh_workdir()
-    out = work / "quick.json"
-    run(["--experiment", "quick", "--points", "500", "--out", str(out)])
-    recs = load(out)["benchmarks"]
     disagreements = [f"{r['name']}: {r['disagreement']}" for r in recs if r.get("agrees") is False]
     check(not disagreements, f"{len(disagreements)} cells where exact adapters disagree:\n" + "\n".join(disagreements))
     errors = [f"{r['name']}: {r['skipped']}" for r in recs if r.get("skipped", "").startswith("error")]
@@ -870,7 +863,7 @@ def case_shards():
 
 CASES = {"isolation": case_isolation, "hostile_values": case_hostile_values, "files": case_files, "fields": case_fields, "min_time": case_min_time, "threads": case_threads,
          "compare_py": case_compare_py, "table1": case_table1, "strategies": case_strategies, "resume": case_resume, "budget": case_budget, "bad_input": case_bad_input,
-         "quick_tiny": case_quick_tiny, "agreement": case_agreement, "scale_memory": case_scale_memory,
+         "quick_tiny": case_quick_tiny, "scale_memory": case_scale_memory,
          "scale_budget": case_scale_budget, "shards": case_shards, "rounds": case_rounds}
 
 if __name__ == "__main__":
