@@ -22,6 +22,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+// The sanitizer build checks indices with libstdc++'s assertions too (the top CMakeLists.txt).
+#if defined(__SANITIZE_ADDRESS__) && !defined(_GLIBCXX_ASSERTIONS)
+#error "the sanitizer build lacks _GLIBCXX_ASSERTIONS"
+#endif
+
 namespace fs = std::filesystem;
 using namespace nnb::datasets;
 using nnb::Cloud;
