@@ -184,32 +184,36 @@ std::vector<Variant> variants() {
   return all;
 }
 
-// One query kind at one limit: knn (max_dist_m infinite), ranged, or radius (k 0).
+// One query kind at one limit (k-NN: none; radius: no k).
 struct QueryCase {
+  nnb::SearchKind kind;
   int k;
   double max_dist_m;
   std::string label;
   Neighbours expected;
   void run(const nnb::SearchIndex& index, const Cloud& queries, Neighbours& out) const {
-    if (k == 0) index.radius(queries, max_dist_m, out);
-    else if (std::isinf(max_dist_m)) index.knn(queries, k, out);
-    else index.ranged(queries, k, max_dist_m, out);
+    switch (kind) {
+      case nnb::SearchKind::knn: index.knn(queries, k, out); break;
+      case nnb::SearchKind::radius: index.radius(queries, max_dist_m, out); break;
+      case nnb::SearchKind::ranged: index.ranged(queries, k, max_dist_m, out); break;
+    }
   }
 };
 
 // Every query kind at every limit, brute force's answers computed once for all variants.
 std::vector<QueryCase> brute_force_cases(const Cloud& model, const Cloud& queries, double extent_m) {
+  using nnb::SearchKind;
   std::vector<QueryCase> cases;
-  const double unlimited = std::numeric_limits<double>::infinity();
   for (int k : {1, 2, 4, 9, 40}) {
-    cases.push_back({k, unlimited, "knn k=" + std::to_string(k), {}});
+    cases.push_back({SearchKind::knn, k, 0.0, "knn k=" + std::to_string(k), {}});
     for (double fraction : {0.0, 0.01, 0.1, 0.5}) {
       const double max_dist_m = fraction * extent_m;
-      cases.push_back({k, max_dist_m, "ranged k=" + std::to_string(k) + " d=" + std::to_string(max_dist_m), {}});
+      cases.push_back({SearchKind::ranged, k, max_dist_m,
+                       "ranged k=" + std::to_string(k) + " d=" + std::to_string(max_dist_m), {}});
     }
   }
   for (double fraction : {0.0, 0.02, 0.2}) {
-    cases.push_back({0, fraction * extent_m, "radius " + std::to_string(fraction * extent_m), {}});
+    cases.push_back({SearchKind::radius, 0, fraction * extent_m, "radius " + std::to_string(fraction * extent_m), {}});
   }
   auto brute = nnb::make_adapter("brute_force");
   brute->build(model);
@@ -228,7 +232,7 @@ void check_all(const Cloud& model, double extent_m) {
     Neighbours got;
     for (const auto& c : cases) {
       c.run(*index, queries, got);
-      ASSERT_EQ("", exact_mismatch(model, queries, c.expected, got, c.k != 0)) << c.label;
+      ASSERT_EQ("", exact_mismatch(model, queries, c.expected, got, c.kind != nnb::SearchKind::radius)) << c.label;
     }
   }
 }
