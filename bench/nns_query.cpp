@@ -112,11 +112,7 @@ double timed_searches(const Options& opt, nnb::SearchKind kind, nnb::Strategy st
   std::vector<double> query_seconds;
   for (int r = 0; r < opt.repeat; ++r) {
     const auto start = std::chrono::steady_clock::now();
-    switch (kind) {
-      case nnb::SearchKind::knn: index.knn(queries, opt.k, found); break;
-      case nnb::SearchKind::radius: index.radius(queries, opt.max_dist_m, found); break;
-      case nnb::SearchKind::ranged: index.ranged(queries, opt.k, opt.max_dist_m, found, strategy); break;
-    }
+    index.search(kind, queries, opt.k, opt.max_dist_m, found, strategy);
     query_seconds.push_back(seconds_since(start));
   }
   std::sort(query_seconds.begin(), query_seconds.end());
@@ -138,11 +134,7 @@ std::size_t queries_agreeing_with_brute_force(const Options& opt, nnb::SearchKin
   const auto reference = nnb::make_adapter("brute_force", {});
   reference->build(model);
   nnb::Neighbours expected;
-  switch (kind) {
-    case nnb::SearchKind::knn: reference->knn(queries, opt.k, expected); break;
-    case nnb::SearchKind::radius: reference->radius(queries, opt.max_dist_m, expected); break;
-    case nnb::SearchKind::ranged: reference->ranged(queries, opt.k, opt.max_dist_m, expected); break;
-  }
+  reference->search(kind, queries, opt.k, opt.max_dist_m, expected);
   std::size_t agreeing = 0;
   for (std::size_t q = 0; q < found.n_queries(); ++q) {
     const std::vector<double> got = sorted_sq_dists(found, q), want = sorted_sq_dists(expected, q);

@@ -192,11 +192,7 @@ struct QueryCase {
   std::string label;
   Neighbours expected;
   void run(const nnb::SearchIndex& index, const Cloud& queries, Neighbours& out) const {
-    switch (kind) {
-      case nnb::SearchKind::knn: index.knn(queries, k, out); break;
-      case nnb::SearchKind::radius: index.radius(queries, max_dist_m, out); break;
-      case nnb::SearchKind::ranged: index.ranged(queries, k, max_dist_m, out); break;
-    }
+    index.search(kind, queries, k, max_dist_m, out);
   }
 };
 

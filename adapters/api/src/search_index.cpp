@@ -331,6 +331,19 @@ void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbo
   ranged(queries, k, max_dist_m, out, info_.ranged);
 }
 
+void SearchIndex::search(SearchKind kind, const Cloud& queries, int k, double max_dist_m, Neighbours& out) const {
+  search(kind, queries, k, max_dist_m, out, info_.ranged);
+}
+
+void SearchIndex::search(SearchKind kind, const Cloud& queries, int k, double max_dist_m, Neighbours& out,
+                         Strategy strategy) const {
+  switch (kind) {
+    case SearchKind::knn: knn(queries, k, out); return;
+    case SearchKind::radius: radius(queries, max_dist_m, out); return;
+    case SearchKind::ranged: ranged(queries, k, max_dist_m, out, strategy); return;
+  }
+}
+
 void SearchIndex::ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out, Strategy strategy) const {
   check_supported(SearchKind::ranged);
   check_offered(info_, SearchKind::ranged, strategy);

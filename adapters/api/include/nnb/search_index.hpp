@@ -116,6 +116,11 @@ class SearchIndex {
   /// with the default strategy or with one of info().strategies(SearchKind::ranged).
   void ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out) const;
   void ranged(const Cloud& queries, int k, double max_dist_m, Neighbours& out, Strategy strategy) const;
+  /// The search of one kind: knn with k, radius with max_dist_m as its radius, or ranged with both and
+  /// strategy; what a kind does not take is ignored.
+  void search(SearchKind kind, const Cloud& queries, int k, double max_dist_m, Neighbours& out) const;
+  void search(SearchKind kind, const Cloud& queries, int k, double max_dist_m, Neighbours& out,
+              Strategy strategy) const;
 
   /// Ranged 1-NN with a hint per query: hints[q] is a model point believed near query q (ICP: its
   /// neighbour in the previous iteration), or kNoHint. The answers are exactly those of
