@@ -80,15 +80,17 @@ void check_outputs(const Options& opt, const std::vector<nnb::datasets::NamedClo
 
 // Every neighbour becomes a CSV row, so the answer is bounded before it is computed: k-NN and ranged by
 // queries x k, radius (unbounded by k) by counting in slices of queries that cannot pass the budget each.
-void check_neighbour_budget(const Options& opt, nnb::SearchKind kind, const nnb::SearchIndex& index,
-                            const nnb::Cloud& queries) {
+// Ranged search via_radius holds the whole radius answer before it keeps k a query, so it is counted as radius.
+void check_neighbour_budget(const Options& opt, nnb::SearchKind kind, nnb::Strategy strategy,
+                            const nnb::SearchIndex& index, const nnb::Cloud& queries) {
   const double n_queries = static_cast<double>(queries.cols());
   const double n_model = static_cast<double>(index.model_size());
   const auto refuse = [&](const std::string& what) {
     throw nnb::InputError(what + " exceeds --max-neighbours " + std::to_string(opt.max_neighbours) +
                           ": lower --k or --max-dist, or raise --max-neighbours");
   };
-  if (kind != nnb::SearchKind::radius) {
+  const bool radius_behind = kind == nnb::SearchKind::ranged && strategy == nnb::Strategy::via_radius;
+  if (kind != nnb::SearchKind::radius && !radius_behind) {
     if (n_queries * std::min<double>(opt.k, n_model) > static_cast<double>(opt.max_neighbours)) {
       refuse(std::to_string(queries.cols()) + " queries x k " + std::to_string(opt.k));
     }
@@ -102,7 +104,10 @@ void check_neighbour_budget(const Options& opt, nnb::SearchKind kind, const nnb:
     const Eigen::Index n = std::min(slice, queries.cols() - first);
     index.radius(queries.middleCols(first, n), opt.max_dist_m, found);
     total += found.total();
-    if (total > opt.max_neighbours) refuse("the radius search's answer (over " + std::to_string(total) + " neighbours)");
+    if (total > opt.max_neighbours) {
+      refuse(std::string(radius_behind ? "the radius search behind via_radius" : "the radius search's answer") +
+             " (over " + std::to_string(total) + " neighbours)");
+    }
   }
 }
 
@@ -254,7 +259,7 @@ int run(const Options& opt) {
   const auto start = std::chrono::steady_clock::now();
   index->build(model.points);
   const double build_seconds = seconds_since(start);
-  check_neighbour_budget(opt, kind, *index, query.points);
+  check_neighbour_budget(opt, kind, strategy, *index, query.points);
 
   nnb::Neighbours found;
   const double median_seconds = timed_searches(opt, kind, strategy, *index, query.points, found);
@@ -315,7 +320,8 @@ int main(int argc, char** argv) {
                "Also search with brute_force and count the queries whose neighbours are at the same distances "
                "(stderr; agreeing_with_brute_force in --stats)");
   app.add_option("--max-neighbours", opt.max_neighbours,
-                 "Refuse a search whose answer would hold more neighbours (CSV rows) than this")
+                 "Refuse a search whose answer would hold more neighbours (CSV rows; for ranged search via_radius, "
+                 "the radius search's answer it keeps k a query of) than this")
       ->capture_default_str();
   app.add_option("--data-dir", opt.data.data_dir, nnb::cli::kDataDirHelp);
   app.add_option("--points", opt.data.synthetic_points, "Points per synthetic set")->capture_default_str();

@@ -203,7 +203,8 @@ class BadInput(unittest.TestCase):
 
     def test_answers_beyond_the_neighbour_budget_are_refused_before_any_output(self):
         out = os.path.join(self.dir, "n.csv")
-        for search in (["--search", "radius", "--max-dist", "10"], ["--search", "knn", "--k", "1000"]):
+        for search in (["--search", "radius", "--max-dist", "10"], ["--search", "knn", "--k", "1000"],
+                       ["--search", "ranged", "--strategy", "via_radius", "--max-dist", "10"]):
             result = run("--adapter", "brute_force", "--model", "filled_cube", "--query", "filled_cube",
                          "--points", "3000", "--max-neighbours", "100000", *search, "--out", out)
             self.assertEqual(result.returncode, 2, result.stderr)
