@@ -539,6 +539,8 @@ TEST_F(IcpBadInput, BadParametersThrow) {
   o = icp::Options{};
   o.max_iterations = 0;
   EXPECT_THROW(icp::register_prebuilt(*index, model, model, o), InputError);
+  o.max_iterations = icp::kMaxIterations + 1;
+  EXPECT_THROW(icp::register_prebuilt(*index, model, model, o), InputError);
   Cloud nan_query = model;
   nan_query(1, 4) = std::nan("");
   EXPECT_THROW(icp::register_prebuilt(*index, model, nan_query, icp::Options{}), InputError);

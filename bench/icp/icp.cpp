@@ -92,8 +92,10 @@ void validate(const Options& options) {
   if (s.factor < 1.0 && s.floor_m <= 0.0) {
     throw InputError("ICP: a shrinking maximal distance needs a final value > 0 m");
   }
-  if (options.max_iterations < 1) {
-    throw InputError("ICP: the iteration limit must be at least 1 (got " + std::to_string(options.max_iterations) + ")");
+  // Each iteration is kept in the result and its file: a limit far beyond any ICP's would only fill memory.
+  if (options.max_iterations < 1 || options.max_iterations > kMaxIterations) {
+    throw InputError("ICP: the iteration limit must lie in [1, " + std::to_string(kMaxIterations) + "] (got " +
+                     std::to_string(options.max_iterations) + ")");
   }
   if (!(options.min_translation_step_m >= 0.0) || !(options.min_rotation_step_rad >= 0.0)) {
     throw InputError("ICP: convergence thresholds must be >= 0");

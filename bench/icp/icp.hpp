@@ -27,6 +27,8 @@ struct DistanceSchedule {
   bool settled(int iteration) const;
 };
 
+inline constexpr int kMaxIterations = 100000;
+
 struct Options {
   Eigen::Matrix4d initial_pose = Eigen::Matrix4d::Identity();  ///< maps query points into the model frame
   DistanceSchedule max_dist;
