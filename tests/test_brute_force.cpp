@@ -1,4 +1,5 @@
 // Brute force on small cases worked out by hand, and the API's refusal of bad input.
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 #include <gtest/gtest.h>
@@ -8,7 +9,9 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
+#include <vector>
 
 namespace {
 
@@ -143,6 +146,32 @@ TEST(Helpers, SortAndTruncateAndFilter) {
   nnb::filter_by_sq_dist(1.0, n);
   EXPECT_EQ(n.count(0), 1u);
   EXPECT_EQ(n.total(), 1u);
+}
+
+// The inline steps adapters widen their bounds by are std::nextafter's, bit for bit, at every kind of value.
+template <typename Real>
+void expect_steps_as_nextafter() {
+  using limits = std::numeric_limits<Real>;
+  const Real inf = limits::infinity();
+  std::vector<Real> values = {Real(0), -Real(0), limits::denorm_min(), -limits::denorm_min(), limits::min(),
+                              -limits::min(), limits::max(), -limits::max(), inf, -inf, Real(1), Real(-1),
+                              Real(0.1), Real(-2.5e-3), Real(6.02e23), std::nextafter(limits::min(), Real(0))};
+  for (int e = limits::min_exponent - limits::digits; e < limits::max_exponent; e += 7) {
+    values.push_back(std::ldexp(Real(1.37), e));
+    values.push_back(-std::ldexp(Real(1.37), e));
+  }
+  const auto same = [](Real a, Real b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (const Real x : values) {
+    EXPECT_TRUE(same(nnb::next_up(x), std::nextafter(x, inf))) << x;
+    EXPECT_TRUE(same(nnb::next_down(x), std::nextafter(x, -inf))) << x;
+  }
+  EXPECT_TRUE(std::isnan(nnb::next_up(limits::quiet_NaN())));
+  EXPECT_TRUE(std::isnan(nnb::next_down(limits::quiet_NaN())));
+}
+
+TEST(Helpers, NextUpAndDownAreNextafter) {
+  expect_steps_as_nextafter<double>();
+  expect_steps_as_nextafter<float>();
 }
 
 // Threads are kept between batches, but a process forked from one that has them gets none of them: the

@@ -1,6 +1,7 @@
 // ANN: ANNkd_tree with the sliding-midpoint rule, exact search (eps = 0), points referenced in place.
 // ANN keeps its search state in globals: single-threaded only. annClose() frees static data shared by
 // every tree, so it is never called here (the process exit frees it).
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 #include <ANN/ANN.h>
@@ -27,7 +28,7 @@ constexpr std::size_t kAnnSplitBytes = 8 + 8 + 8 + 2 * 8 + 2 * 8;
 double inflated_sq_bound_m2(double limit_m, const double* query) {
   const double scale = std::max({std::abs(query[0]), std::abs(query[1]), std::abs(query[2]), limit_m});
   const double padded_m = limit_m + 1e-12 * scale;
-  return std::nextafter(padded_m * padded_m, std::numeric_limits<double>::infinity());
+  return next_up(padded_m * padded_m);
 }
 
 class AnnKdTree final : public SearchIndex {

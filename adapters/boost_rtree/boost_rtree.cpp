@@ -6,6 +6,7 @@
 // with the k-th: one more than k is asked for, and where the last two may tie, every point within the
 // k-th distance is fetched through its box and cut exactly. Radius search is a box intersection (the
 // library's boxes include their faces) followed by the exact filter.
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 // Boost 1.74's rtree includes headers of its own that it marks deprecated (a message on every build).
@@ -52,16 +53,15 @@ BoostPoint to_point(const double* xyz) { return BoostPoint(xyz[0], xyz[1], xyz[2
 // The box around the ball of radius_m, wide enough for every point whose squared distance rounds to at
 // most radius_m^2 (one ulp outwards per bound for the rounding of centre +- half width).
 BoostBox ball_box(const double* centre, double radius_m) {
-  const double inf = std::numeric_limits<double>::infinity();
   const double half_width_m = radius_m * (1.0 + kBoxPad);
   BoostPoint low;
   BoostPoint high;
-  bg::set<0>(low, std::nextafter(centre[0] - half_width_m, -inf));
-  bg::set<1>(low, std::nextafter(centre[1] - half_width_m, -inf));
-  bg::set<2>(low, std::nextafter(centre[2] - half_width_m, -inf));
-  bg::set<0>(high, std::nextafter(centre[0] + half_width_m, inf));
-  bg::set<1>(high, std::nextafter(centre[1] + half_width_m, inf));
-  bg::set<2>(high, std::nextafter(centre[2] + half_width_m, inf));
+  bg::set<0>(low, next_down(centre[0] - half_width_m));
+  bg::set<1>(low, next_down(centre[1] - half_width_m));
+  bg::set<2>(low, next_down(centre[2] - half_width_m));
+  bg::set<0>(high, next_up(centre[0] + half_width_m));
+  bg::set<1>(high, next_up(centre[1] + half_width_m));
+  bg::set<2>(high, next_up(centre[2] + half_width_m));
   return BoostBox(low, high);
 }
 

@@ -11,6 +11,7 @@
 #include <embree3/rtcore.h>
 
 #include "../float_libs/float_frame.hpp"
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -44,7 +45,7 @@ constexpr float kInfinity = std::numeric_limits<float>::infinity();
 // The smallest float >= x (infinity beyond float's range).
 float float_at_least(double x) {
   const auto f = static_cast<float>(x);
-  return static_cast<double>(f) < x ? std::nextafter(f, kInfinity) : f;
+  return static_cast<double>(f) < x ? next_up(f) : f;
 }
 
 // Single-threaded by request: Embree's tasking system (TBB) would otherwise build on every core.
@@ -82,8 +83,8 @@ void point_bounds(const RTCBoundsFunctionArguments* args) {
   float upper[3];
   for (int d = 0; d < 3; ++d) {
     const float c = input.frame->coord(point, d);
-    lower[d] = std::nextafter(c, -kInfinity);
-    upper[d] = std::nextafter(c, kInfinity);
+    lower[d] = next_down(c);
+    upper[d] = next_up(c);
   }
   RTCBounds& box = *args->bounds_o;
   box.lower_x = lower[0];

@@ -12,6 +12,7 @@
 
 #include "../float_libs/exact_knn.hpp"
 #include "../float_libs/float_frame.hpp"
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 #include <climits>
@@ -48,7 +49,7 @@ class ExactSingleCoreScope {
 
 /// FAISS's squared radius (m^2, float) that keeps every point closer than search_m under its strict test.
 float faiss_sq_radius_m2(double search_m) {
-  return std::nextafter(static_cast<float>(search_m * search_m), INFINITY);
+  return next_up(static_cast<float>(search_m * search_m));
 }
 
 class FaissFlat final : public SearchIndex {

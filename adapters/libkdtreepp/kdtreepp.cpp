@@ -10,6 +10,7 @@
 // cube, padded, then cut at d2 <= r^2.
 #include <kdtree++/kdtree.hpp>
 
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -153,7 +154,7 @@ class LibKdTreePP final : public SearchIndex {
     out.reset(n_queries, n_queries * k);
     NearestQuery state{nullptr, k, max_dist_m * max_dist_m, {}};
     state.heap.reserve(k);
-    const double start_bound_m = std::nextafter(max_dist_m * (1.0 + kPad), std::numeric_limits<double>::infinity());
+    const double start_bound_m = next_up(max_dist_m * (1.0 + kPad));
     for (std::size_t q = 0; q < n_queries; ++q) {
       state.query = queries.col(static_cast<Eigen::Index>(q)).data();
       state.heap.clear();
@@ -167,14 +168,13 @@ class LibKdTreePP final : public SearchIndex {
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
     const auto n_queries = static_cast<std::size_t>(queries.cols());
     out.reset(n_queries);
-    const double inf = std::numeric_limits<double>::infinity();
     const double half_width_m = radius_m * (1.0 + kPad);
     for (std::size_t q = 0; q < n_queries; ++q) {
       const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
       Tree::_Region_ cube;
       for (int d = 0; d < 3; ++d) {
-        cube._M_low_bounds[d] = std::nextafter(query[d] - half_width_m, -inf);
-        cube._M_high_bounds[d] = std::nextafter(query[d] + half_width_m, inf);
+        cube._M_low_bounds[d] = next_down(query[d] - half_width_m);
+        cube._M_high_bounds[d] = next_up(query[d] + half_width_m);
       }
       tree_->visit_within_range(cube, KeepWithin(query, radius_m * radius_m, out));
       out.end_query();

@@ -1,6 +1,7 @@
 #pragma once
 // What both nanoflann adapters (Debian's 1.4.3 and the newest, each in its own translation unit and namespace)
 // hand nanoflann alike. Includes no nanoflann header, so that each adapter sees only its own version's.
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -27,7 +28,17 @@ struct CloudSource {
 inline double inflated_sq_bound_m2(double limit_m, const double* query) {
   const double scale = std::max({std::abs(query[0]), std::abs(query[1]), std::abs(query[2]), limit_m});
   const double padded_m = limit_m + 1e-12 * scale;
-  return std::nextafter(padded_m * padded_m, std::numeric_limits<double>::infinity());
+  return next_up(padded_m * padded_m);
+}
+
+// Appends one query's row: those of the count found whose squared distance is within limit_sq_m2 (the
+// search ran with the inflated bound).
+inline void append_within(double limit_sq_m2, const PointIndex* indices, const double* sq_dists, std::size_t count,
+                          Neighbours& out) {
+  for (std::size_t i = 0; i < count; ++i) {
+    if (sq_dists[i] <= limit_sq_m2) out.push(indices[i], sq_dists[i]);
+  }
+  out.end_query();
 }
 
 // The k nearest of each query (at most the model's size), by the tree's own knnSearch.

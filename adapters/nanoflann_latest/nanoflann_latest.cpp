@@ -42,6 +42,7 @@ namespace nnb::adapters {
 namespace {
 
 using nanoflann_source::CloudSource;
+using nanoflann_source::append_within;
 using nanoflann_source::inflated_sq_bound_m2;
 
 namespace nf = ::nanoflann_latest;
@@ -111,15 +112,14 @@ class NanoflannLatest final : public SearchIndex {
     const std::size_t keep = std::min<std::size_t>(static_cast<std::size_t>(k), model_size());
     std::vector<PointIndex> indices(keep);
     std::vector<double> sq_dists(keep);
-    out.reset(static_cast<std::size_t>(queries.cols()));
+    const auto n = static_cast<std::size_t>(queries.cols());
+    out.reset(n, n);
     for (Eigen::Index q = 0; q < queries.cols(); ++q) {
       const double* query = queries.col(q).data();
       const std::size_t found =
           tree_->rknnSearch(query, keep, indices.data(), sq_dists.data(), inflated_sq_bound_m2(max_dist_m, query));
-      for (std::size_t i = 0; i < found; ++i) out.push(indices[i], sq_dists[i]);
-      out.end_query();
+      append_within(max_dist_m * max_dist_m, indices.data(), sq_dists.data(), found, out);
     }
-    filter_by_sq_dist(max_dist_m * max_dist_m, out);
   }
 
   int leaf_size_;

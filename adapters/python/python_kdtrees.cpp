@@ -4,6 +4,7 @@
 // that all adapters report the same bits. cKDTree's and pykdtree's distance_upper_bound is strict and
 // rounding in their cell pruning is not ours, so bounded searches ask slightly wider and cut at <= r.
 #include "embedded_python.hpp"
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -126,7 +127,7 @@ class PythonTree : public SearchIndex {
     const double query_magnitude_m = queries.cols() == 0 ? 0.0 : queries.cwiseAbs().maxCoeff();
     const double scale = std::max({model_magnitude_m_, query_magnitude_m, limit_m});
     const double padded_m = std::max(limit_m * (1.0 + 1e-12) + 1e-12 * scale, 1e-150);
-    return std::nextafter(padded_m, std::numeric_limits<double>::infinity());
+    return next_up(padded_m);
   }
 
   /// Whether the library shares the model's memory (else its copy counts as index memory).

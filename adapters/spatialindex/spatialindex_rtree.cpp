@@ -5,6 +5,7 @@
 // Its k-NN search orders by plain (square-rooted) distances and returns every entry tied with the k-th,
 // so it may return more than k: rows are recomputed in double and cut to the k nearest. It has no
 // radius search: the query's bounding box is intersected, then filtered exactly.
+#include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
 
 #include <spatialindex/SpatialIndex.h>
@@ -133,7 +134,6 @@ class SpatialIndexRTree final : public SearchIndex {
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
     out.reset(static_cast<std::size_t>(queries.cols()));
     IdCollector collect(out);
-    const double inf = std::numeric_limits<double>::infinity();
     // Wide enough for any point whose rounded squared distance is <= r*r; one ulp outwards per bound
     // makes up for the rounding of query +- half_width.
     const double half_width_m = radius_m * (1.0 + 1e-12);
@@ -142,8 +142,8 @@ class SpatialIndexRTree final : public SearchIndex {
       double high[3];
       for (Eigen::Index q = 0; q < queries.cols(); ++q) {
         for (int d = 0; d < 3; ++d) {
-          low[d] = std::nextafter(queries(d, q) - half_width_m, -inf);
-          high[d] = std::nextafter(queries(d, q) + half_width_m, inf);
+          low[d] = next_down(queries(d, q) - half_width_m);
+          high[d] = next_up(queries(d, q) + half_width_m);
         }
         tree_->intersectsWithQuery(si::Region(low, high, 3), collect);
         out.end_query();
