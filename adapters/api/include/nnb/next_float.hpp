@@ -1,6 +1,6 @@
 #pragma once
-// The adjacent doubles, as std::nextafter(x, +-inf) gives them, inline: adapters widen bounds by one ulp for
-// every query, and a call into libm there was a few per cent of a fast library's search time.
+// The adjacent values of a double or float, as std::nextafter(x, +-inf) gives them, inline: adapters widen
+// bounds by one ulp for every query, and a call into libm there was a few per cent of a fast library's search.
 #include <cstdint>
 #include <cstring>
 #include <limits>
