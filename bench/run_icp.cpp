@@ -454,7 +454,9 @@ void add_flags(CLI::App& app, ExperimentFlags& experiment, SingleRun& one) {
   app.add_option("--max-dist-factor", s.max_dist.factor, "multiply the maximal distance by this each iteration (1 = fixed)")
       ->capture_default_str();
   app.add_option("--min-max-dist", s.max_dist.floor_m, "the maximal distance never shrinks below this (m)");
-  app.add_option("--iterations", s.max_iterations, "iteration limit")->capture_default_str();
+  app.add_option("--iterations", s.max_iterations,
+                 "iteration limit (1 to " + std::to_string(icp::kMaxIterations) + ")")
+      ->capture_default_str();
   app.add_option("--min-step-m", s.min_translation_step_m, "converged when a step moves less than this (m) ...")
       ->capture_default_str();
   app.add_option("--min-step-rad", s.min_rotation_step_rad, "... and turns less than this (rad)")->capture_default_str();
