@@ -1,6 +1,7 @@
 // nns_query: answer one query set with one adapter and write every neighbour found as CSV.
 // The tool a user reaches for to check any library's answer, and its speed, by hand.
 #include "adapter_json.hpp"
+#include "answer_size.hpp"
 #include "cli_common.hpp"
 #include "machine_json.hpp"
 #include "results_json.hpp"
@@ -79,7 +80,7 @@ void check_outputs(const Options& opt, const std::vector<nnb::datasets::NamedClo
 }
 
 // Every neighbour becomes a CSV row, so the answer is bounded before it is computed: k-NN and ranged by
-// queries x k, radius (unbounded by k) by counting in slices of queries that cannot pass the budget each.
+// queries x k, radius (unbounded by k) by counting it first in bounded slices.
 // Ranged search via_radius holds the whole radius answer before it keeps k a query, so it is counted as radius.
 void check_neighbour_budget(const Options& opt, nnb::SearchKind kind, nnb::Strategy strategy,
                             const nnb::SearchIndex& index, const nnb::Cloud& queries) {
@@ -96,18 +97,9 @@ void check_neighbour_budget(const Options& opt, nnb::SearchKind kind, nnb::Strat
     }
     return;
   }
-  if (n_queries * n_model <= static_cast<double>(opt.max_neighbours)) return;
-  const Eigen::Index slice = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(opt.max_neighbours / index.model_size()));
-  std::size_t total = 0;
-  nnb::Neighbours found;
-  for (Eigen::Index first = 0; first < queries.cols(); first += slice) {
-    const Eigen::Index n = std::min(slice, queries.cols() - first);
-    index.radius(queries.middleCols(first, n), opt.max_dist_m, found);
-    total += found.total();
-    if (total > opt.max_neighbours) {
-      refuse(std::string(radius_behind ? "the radius search behind via_radius" : "the radius search's answer") +
-             " (over " + std::to_string(total) + " neighbours)");
-    }
+  if (const auto held = nnb::radius_answer_past_limit(index, queries, opt.max_dist_m, opt.max_neighbours)) {
+    refuse(std::string(radius_behind ? "the radius search behind via_radius" : "the radius search's answer") +
+           " (over " + std::to_string(*held) + " neighbours)");
   }
 }
 

@@ -382,7 +382,7 @@ def case_budget():
     # a generous budget skips nothing
     run(TINY + ["--adapters", "brute_force", "--budget", "100", "--out", str(work / "none.json")])
     check(not any("skipped" in r for r in load(work / "none.json")["benchmarks"]), "skipped under a large budget")
-    # the neighbour budget, from an experiment file: radius stops after the first cell over 50 neighbours
+    # the neighbour budget, from an experiment file: radius stops after the first cell over 400 neighbours
     experiment = work / "neighbours.json"
     experiment.write_text(json.dumps({"name": "nb", "pairs": [{"model": "filled_cube", "query": "filled_cube"}],
                                       "adapters": ["brute_force"], "searches": ["radius"], "dists": "0:0.5:0.1",
@@ -394,7 +394,27 @@ def case_budget():
     check(ran[-1]["neighbours"] > 400 and all(r["neighbours"] <= 400 for r in ran[:-1]),
           "neighbour budget stopped at the wrong cell")
     check(all(r["skipped"].startswith("over neighbour budget") for r in recs[len(ran):]), "neighbour skip reason")
-
+    # ranged search via_radius holds the radius answer before it keeps k: its group stops, unrun, at the first
+    # distance whose radius answer passes the budget (where the radius group, which holds it as its answer, runs
+    # its last cell), though one row a query is kept
+    experiment.write_text(json.dumps({"name": "nb", "pairs": [{"model": "filled_cube", "query": "filled_cube"}],
+                                      "adapters": ["brute_force"], "searches": ["ranged", "radius"],
+                                      "strategies": "all", "dists": "0:0.5:0.1", "repetitions": 1,
+                                      "neighbour_budget": 400, "synthetic_points": 200}))
+    run(["--experiment", str(experiment), "--out", str(work / "nb_via_radius.json")])
+    cells = [r for r in load(work / "nb_via_radius.json")["benchmarks"] if r["type"] == "sweep"]
+    via_radius = [r for r in cells if r["strategy"] == "via_radius"]
+    ran = [r for r in via_radius if "skipped" not in r]
+    check(len(via_radius) == 6 and 1 <= len(ran) < 6, f"via_radius: {len(ran)} of {len(via_radius)} cells ran")
+    check(all(r["neighbours"] <= 200 for r in ran), "via_radius kept more than one neighbour a query")
+    check(all("radius search behind via_radius" in r["skipped"] for r in via_radius[len(ran):]),
+          "via_radius skip reason: " + "; ".join(r["skipped"] for r in via_radius[len(ran):]))
+    radius = [r for r in cells if r["search"] == "radius" and "skipped" not in r]
+    check(len(radius) == len(ran) + 1 and radius[-1]["neighbours"] > 400 >= radius[-2]["neighbours"],
+          "via_radius stopped where the radius answer did not pass the budget: " +
+          ", ".join(str(r["neighbours"]) for r in radius))
+    others = [r for r in cells if r["search"] == "ranged" and r["strategy"] != "via_radius"]
+    check(others and not any("skipped" in r for r in others), "the budget stopped another ranged strategy")
 
 def case_bad_input():
     work = fresh_workdir()

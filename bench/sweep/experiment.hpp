@@ -51,7 +51,8 @@ struct Experiment {
   double budget_s = 2.0;                      ///< per cell, per repetition
   double min_time_s = 0.0;  ///< repeat a cell until its calls took this long in total (0: every repetition)
   int threads = 1;          ///< threads a search call may use (SearchIndex::set_threads); builds use one
-  std::size_t neighbour_budget = 20'000'000;  ///< per cell: more neighbours than this stops larger distances
+  /// Per cell: more neighbours than this (found, or held by via_radius before it keeps k) stops larger distances.
+  std::size_t neighbour_budget = 20'000'000;
   std::size_t synthetic_points = 60000;
   std::uint64_t seed = 1;
   double memory_limit_gib = 8.0;    ///< per build; see size_gate.hpp

@@ -1,5 +1,6 @@
 #include "runner.hpp"
 
+#include "answer_size.hpp"
 #include "isolation.hpp"
 #include "memory.hpp"
 #include "size_gate.hpp"
@@ -311,6 +312,17 @@ std::string reason_to_stop(const Record& r, const Cell& cell, double fastest_s, 
   return "";
 }
 
+// Ranged search via_radius holds the whole radius answer before it keeps k a query: counted first (in
+// bounded slices, untimed), a cell whose radius answer would pass the neighbour budget is not run.
+std::string over_budget_behind(const SearchIndex& index, const Cloud& queries, const Group& group,
+                               const Cell& cell, const Experiment& e) {
+  if (group.kind != SearchKind::ranged || group.strategy != Strategy::via_radius) return "";
+  const auto held = radius_answer_past_limit(index, queries, *cell.max_dist_m, e.neighbour_budget);
+  if (!held) return "";
+  return "over neighbour budget: over " + std::to_string(*held) + " neighbours > " +
+         std::to_string(e.neighbour_budget) + " in the radius search behind via_radius";
+}
+
 struct SweepState {
   const Experiment& e;
   const LoadedData& data;
@@ -331,7 +343,9 @@ std::string sweep_cell(const Unit& unit, const DataPair& pair, const Group& grou
   double fastest_s = 0.0;
   try {
     inject_fault(unit.adapter.name);
-    fastest_s = run_cell(index, s.data.queries.at(pair.query).points, group, cell, s.e, 0, out, r);
+    const Cloud& queries = s.data.queries.at(pair.query).points;
+    r.skipped = over_budget_behind(index, queries, group, cell, s.e);
+    if (r.skipped.empty()) fastest_s = run_cell(index, queries, group, cell, s.e, 0, out, r);
   } catch (const std::bad_alloc&) {
     r.skipped = "out of memory: std::bad_alloc";
     s.progress.loud("ERROR " + cell.name + ": " + r.skipped);
