@@ -90,7 +90,7 @@ void add_flags(CLI::App& app, Flags& flags) {
   app.add_option("--dists", flags.dists, "swept maximal distances, start:stop:step in metres");
   app.add_option("--strategies", flags.strategies,
                  "ranged search with each adapter's default strategy ('default') or every one it offers ('all')");
-  app.add_option("--repetitions", flags.repetitions, "timed calls per cell at most (each is a record)");
+  app.add_option("--repetitions", flags.repetitions, "timed calls per cell at most, 1 to 10000 (each is a record)");
   app.add_option("--rounds", flags.rounds,
                  "passes over each model's units, each timing every cell that ran again (--repetitions calls a "
                  "pass), so that a cell's calls lie apart in time; a model's passes end before the next model's "

@@ -17,7 +17,10 @@ BINARY = None
 
 
 def run(*args, env=None):
-    return subprocess.run([BINARY, *args], capture_output=True, text=True, timeout=300, env=env)
+    proc = subprocess.run([BINARY, *args], capture_output=True, text=True, timeout=300, env=env)
+    if "At Most 1 required but received" in proc.stderr:  # refused for the repeat, not for what it tests
+        raise AssertionError(f"a flag given twice: {' '.join(args)}")
+    return proc
 
 
 class Answers(unittest.TestCase):

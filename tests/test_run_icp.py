@@ -31,7 +31,10 @@ def fail(message):
 
 
 def run(args, cwd=None):
-    return subprocess.run([RUN_ICP] + args, capture_output=True, text=True, timeout=300, cwd=cwd)
+    proc = subprocess.run([RUN_ICP] + args, capture_output=True, text=True, timeout=300, cwd=cwd)
+    if "At Most 1 required but received" in proc.stderr:  # refused for the repeat, not for what it tests
+        fail(f"a flag given twice: {' '.join(args)}")
+    return proc
 
 
 def case_cli():

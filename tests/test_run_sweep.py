@@ -44,6 +44,8 @@ def check(condition, message):
 def run(args, env=None, expect=0):
     full_env = dict(os.environ, **(env or {}))
     proc = subprocess.run([RUN_SWEEP] + args, capture_output=True, text=True, env=full_env, timeout=900)
+    if "At Most 1 required but received" in proc.stderr:  # refused for the repeat, not for what it tests
+        fail(f"a flag given twice: {' '.join(args)}")
     if expect is not None and proc.returncode != expect:
         fail(f"{' '.join(args)} exited {proc.returncode}, expected {expect}\nstderr:\n{proc.stderr[-3000:]}")
     return proc
@@ -416,6 +418,13 @@ def case_budget():
     others = [r for r in cells if r["search"] == "ranged" and r["strategy"] != "via_radius"]
     check(others and not any("skipped" in r for r in others), "the budget stopped another ranged strategy")
 
+def with_flags(base, extra):
+    """base's flags and values with those extra gives replaced (a flag given twice is itself refused)."""
+    given = {extra[i] for i in range(0, len(extra), 2)}
+    kept = [word for i in range(0, len(base), 2) if base[i] not in given for word in base[i:i + 2]]
+    return kept + extra
+
+
 def case_bad_input():
     work = fresh_workdir()
     bad_json = work / "bad.json"
@@ -426,9 +435,10 @@ def case_bad_input():
              ["--repetitions", "0"], ["--rounds", "0"], ["--rounds", "1001"], ["--budget", "0"], ["--no-such-flag"]]
     for i, extra in enumerate(cases):
         out = work / f"out{i}.json"
-        proc = run(TINY + extra + ["--out", str(out)], expect=2)
+        proc = run(with_flags(TINY, extra) + ["--out", str(out)], expect=2)
         lines = [l for l in proc.stderr.splitlines() if l.strip() and "WARNING" not in l]
         check(lines, f"{extra}: no message")
+        check("At Most 1 required" not in proc.stderr, f"{extra}: refused for a flag given twice")
         check(not out.exists(), f"{extra}: wrote a results file")
     check(sorted(p.name for p in work.iterdir()) == ["bad.json"], "bad input left files behind")
 
@@ -684,9 +694,11 @@ def case_hostile_values():
     """Values that could run nothing, wrap or allocate gigabytes: each is one line and exit 2."""
     work = fresh_workdir()
     experiments = {"fractional_repetitions": {"repetitions": 1.5}, "negative_points": {"synthetic_points": -1},
-                   "huge_k": {"k": [2147483648]}, "zero_step": {"dists": "0:1:0"}}
+                   "huge_k": {"k": [2147483648]}, "zero_step": {"dists": "0:1:0"},
+                   "huge_build_repetitions": {"build_repetitions": 2000000000}}
     cases = [["--points", "-1"], ["--dists", "0:1:1e-300"], ["--dists", "0:100:0.000001"],
-             ["--dists", "0:0.000000001:0.0000000001"]]
+             ["--dists", "0:0.000000001:0.0000000001"], ["--repetitions", "2000000000"], ["--budget", "inf"],
+             ["--min-time", "inf"], ["--cell-timeout", "inf"]]
     for label, fields in experiments.items():
         path = work / f"{label}.json"
         path.write_text(json.dumps(dict({"name": label, "pairs": [{"model": "hollow_sphere", "query": "hollow_cube"}],
@@ -694,11 +706,16 @@ def case_hostile_values():
         cases.append(["--experiment", str(path)])
     for i, extra in enumerate(cases):
         out = work / f"out{i}.json"
-        args = (TINY if "--experiment" not in extra else ["--points", "300"]) + extra
+        args = with_flags(TINY, extra) if "--experiment" not in extra else ["--points", "300"] + extra
         proc = run(args + ["--adapters", "brute_force", "--out", str(out)], expect=2)
         lines = [l for l in proc.stderr.splitlines() if l.strip() and "WARNING" not in l]
         check(len(lines) == 1 and lines[0].startswith("run_sweep: error: "), f"{extra}: not one error line: {lines}")
+        check("(see --help)" not in lines[0], f"{extra}: refused as a command line, not as a value: {lines[0]}")
+        check(len(lines[0]) < 200, f"{extra}: an error line of {len(lines[0])} characters")
         check(not out.exists(), f"{extra}: wrote a results file")
+    # numbers in a message as typed, not as %f would print them
+    proc = run(with_flags(TINY, ["--dists", "0:1e300:1"]) + ["--out", str(work / "big.json")], expect=2)
+    check("0:1e+300 by 1 m" in proc.stderr, f"--dists 0:1e300:1: {proc.stderr.strip()}")
 
 
 def case_files():

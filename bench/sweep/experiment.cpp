@@ -20,6 +20,13 @@
 namespace nnb::sweep {
 namespace {
 
+// A number as a message shows it: 0.05, 1e-12, 1e+300.
+std::string number_text(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
 using nlohmann::json;
 
 double parse_number(const std::string& text, const std::string& what) {
@@ -210,21 +217,30 @@ void validate(const Experiment& e, const std::vector<std::string>& all_adapters)
   if (!std::isfinite(d.start_m) || d.start_m < 0.0) throw InputError("distances must be >= 0 m");
   if (!std::isfinite(d.stop_m) || d.stop_m < d.start_m) throw InputError("distance stop must be >= start");
   if (d.count() > kMaxDistances) {
-    throw InputError("distances " + std::to_string(d.start_m) + ":" + std::to_string(d.stop_m) + " by " +
-                     std::to_string(d.step_m) + " m make more than " + std::to_string(long(kMaxDistances)) +
+    throw InputError("distances " + number_text(d.start_m) + ":" + number_text(d.stop_m) + " by " +
+                     number_text(d.step_m) + " m make more than " + std::to_string(long(kMaxDistances)) +
                      " values: is the step right?");
   }
-  if (e.repetitions < 1) throw InputError("repetitions must be at least 1");
-  if (e.build_repetitions < 1) throw InputError("build repetitions must be at least 1");
+  if (e.repetitions < 1 || e.repetitions > kMaxRepetitions) {
+    throw InputError("repetitions must be from 1 to " + std::to_string(kMaxRepetitions));
+  }
+  if (e.build_repetitions < 1 || e.build_repetitions > kMaxRepetitions) {
+    throw InputError("build repetitions must be from 1 to " + std::to_string(kMaxRepetitions));
+  }
   if (e.rounds < 1 || e.rounds > kMaxRounds) {
     throw InputError("rounds must be from 1 to " + std::to_string(kMaxRounds));
   }
-  if (!(e.budget_s > 0.0)) throw InputError("the time budget must be > 0 s");
-  if (!(e.min_time_s >= 0.0)) throw InputError("min_time_seconds must be >= 0 s");
+  // Finite: a results file's config holds them, and JSON has no infinity.
+  if (!(e.budget_s > 0.0) || !std::isfinite(e.budget_s)) throw InputError("the time budget must be a finite > 0 s");
+  if (!(e.min_time_s >= 0.0) || !std::isfinite(e.min_time_s)) {
+    throw InputError("min_time_seconds must be a finite >= 0 s");
+  }
   if (e.threads < 1 || e.threads > SearchIndex::kMaxThreads) {
     throw InputError("threads must be from 1 to " + std::to_string(SearchIndex::kMaxThreads));
   }
-  if (!(e.cell_timeout_s > 0.0)) throw InputError("the cell time-out must be > 0 s");
+  if (!(e.cell_timeout_s > 0.0) || !std::isfinite(e.cell_timeout_s)) {
+    throw InputError("the cell time-out must be a finite > 0 s");
+  }
   if (e.synthetic_points < 1) throw InputError("synthetic data sets need at least 1 point");
   if (!std::isfinite(e.memory_limit_gib) || !(e.memory_limit_gib > 0.0)) {
     throw InputError("the memory limit must be > 0 GiB");

@@ -18,6 +18,8 @@ struct DataPair {
 constexpr double kMaxDistances = 100000;
 /// More passes than this over a plan is a typing error, not an experiment.
 constexpr int kMaxRounds = 1000;
+/// Most timed calls a cell (and builds a unit) may ask for: each is a record of the results file.
+constexpr int kMaxRepetitions = 10000;
 
 struct DistRange {
   double start_m = 0.0;
