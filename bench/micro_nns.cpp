@@ -39,6 +39,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -699,6 +700,11 @@ std::optional<int> take_shared_options(int& argc, char** argv) {
         return 2;
       }
       data_dir() = arg == "--data-dir" ? argv[++i] : arg.substr(std::strlen("--data-dir="));
+      std::error_code error;
+      if (!std::filesystem::is_directory(data_dir(), error)) {  // else every real pair reads "not run"
+        std::cerr << "micro_nns: error: --data-dir: not a folder: " << data_dir() << "\n";
+        return 2;
+      }
     } else {
       argv[kept++] = argv[i];
     }

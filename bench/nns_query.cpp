@@ -315,7 +315,7 @@ int main(int argc, char** argv) {
                  "Refuse a search whose answer would hold more neighbours (CSV rows; for ranged search via_radius, "
                  "the radius search's answer it keeps k a query of) than this")
       ->capture_default_str();
-  app.add_option("--data-dir", opt.data.data_dir, nnb::cli::kDataDirHelp);
+  app.add_option("--data-dir", opt.data.data_dir, nnb::cli::kDataDirHelp)->check(CLI::ExistingDirectory);
   app.add_option("--points", opt.data.synthetic_points, "Points per synthetic set")->capture_default_str();
   app.add_option("--seed", opt.data.seed, "Seed of the synthetic sets")->capture_default_str();
   if (const auto code = nnb::cli::parse_command_line(app, argc, argv, "nns_query")) return *code;

@@ -469,7 +469,7 @@ void add_flags(CLI::App& app, ExperimentFlags& experiment, SingleRun& one) {
                  "threads each search may use (default: the experiment's, else 1; adapters that cannot share an index "
                  "use one, and each record says how many it used)")
       ->check(CLI::Range(1, nnb::SearchIndex::kMaxThreads));
-  app.add_option("--data-dir", one.data.data_dir, nnb::cli::kDataDirHelp);
+  app.add_option("--data-dir", one.data.data_dir, nnb::cli::kDataDirHelp)->check(CLI::ExistingDirectory);
   app.add_option("--points", one.data.synthetic_points, "points per synthetic set")->capture_default_str();
   app.add_option("--seed", one.data.seed, "seed of the synthetic sets")->capture_default_str();
   app.add_option("--out", one.out_path, "results file (JSON, Google Benchmark schema), written atomically");

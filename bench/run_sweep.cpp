@@ -106,7 +106,7 @@ void add_flags(CLI::App& app, Flags& flags) {
   app.add_option("--memory-limit-gib", flags.memory_limit_gib,
                  "memory per build (index or peak RSS growth) above which larger models are skipped (default 8)");
   app.add_option("--out", flags.out, "results file (default: results/sweep_<experiment>.json, from the current folder)");
-  app.add_option("--data-dir", flags.data_dir, nnb::cli::kDataDirHelp);
+  app.add_option("--data-dir", flags.data_dir, nnb::cli::kDataDirHelp)->check(CLI::ExistingDirectory);
   app.add_flag("--resume", flags.resume, "finish the cells missing from --out (same configuration only)");
   app.add_option("--shard", flags.shard, "I/N: run only shard I (from 0) of N, balanced by expected cost");
   app.add_flag("--plan", flags.plan, "print the cells, units and shards with their expected cost; run nothing");

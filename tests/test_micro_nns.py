@@ -58,9 +58,11 @@ def main(micro_nns):
         failures.append("no summary line")
     elif int(summary[1]) + int(summary[2]) != expected:
         failures.append(f"expected {expected} targets judged, got {summary[0]}")
-    bad = subprocess.run([micro_nns, "--threads", "0"], capture_output=True, text=True, timeout=60)
-    if bad.returncode != 2 or len(bad.stderr.strip().splitlines()) != 1:
-        failures.append(f"--threads 0: exit {bad.returncode}, stderr {bad.stderr!r}")
+    # a --data-dir that is not a folder would leave every real pair "not run" with exit 0: refused at once
+    for args in (["--threads", "0"], ["--data-dir", "/nonexistent/nnb-real-scans"]):
+        bad = subprocess.run([micro_nns, *args], capture_output=True, text=True, timeout=60)
+        if bad.returncode != 2 or len(bad.stderr.strip().splitlines()) != 1:
+            failures.append(f"{' '.join(args)}: exit {bad.returncode}, stderr {bad.stderr!r}")
     for f in failures:
         print("FAIL:", f)
     if failures:

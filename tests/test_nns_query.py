@@ -227,7 +227,8 @@ class BadInput(unittest.TestCase):
                 self.assertEqual(f.read(), before)
 
     def test_command_line_errors_are_one_line_and_exit_2(self):
-        for bad in (["--k", "abc"], ["--no-such-option"], ["--threads", "0"], ["--threads", "100000"]):
+        for bad in (["--k", "abc"], ["--no-such-option"], ["--threads", "0"], ["--threads", "100000"],
+                    ["--data-dir", os.path.join(self.dir, "absent"), "--model", "hollow_cube", "--query", "hollow_cube"]):
             result = run(*bad)
             self.assertEqual(result.returncode, 2)
             self.assertEqual(len(result.stderr.strip().splitlines()), 1, result.stderr)

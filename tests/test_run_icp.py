@@ -92,7 +92,7 @@ def case_cli():
         if "error" not in proc.stderr or bad_out.exists():
             fail(f"{bad}: no error line, or a file was written: {proc.stderr!r}")
     # Command-line errors are CLI11's but exit 2 with one line, like every other error.
-    for bad in (["--iterations", "abc"], ["--no-such-option"], ["--max-dist"]):
+    for bad in (["--iterations", "abc"], ["--no-such-option"], ["--max-dist"], ["--data-dir", str(WORK / "absent")]):
         proc = run(bad)
         lines = [l for l in proc.stderr.splitlines() if l.strip() and "WARNING" not in l]
         if proc.returncode != 2 or len(lines) != 1 or not lines[0].startswith("run_icp: error: "):

@@ -432,7 +432,8 @@ def case_bad_input():
     cases = [["--adapters", "no_such_adapter"], ["--datasets", "no_such_data_set"], ["--dists", "0:1:0"],
              ["--dists", "0:1:-0.02"], ["--dists", "-0.1:1:0.02"], ["--dists", "0:1"], ["--dists", "a:b:c"],
              ["--experiment", str(work / "missing.json")], ["--experiment", str(bad_json)],
-             ["--repetitions", "0"], ["--rounds", "0"], ["--rounds", "1001"], ["--budget", "0"], ["--no-such-flag"]]
+             ["--repetitions", "0"], ["--rounds", "0"], ["--rounds", "1001"], ["--budget", "0"], ["--no-such-flag"],
+             ["--data-dir", str(work / "absent")]]
     for i, extra in enumerate(cases):
         out = work / f"out{i}.json"
         proc = run(with_flags(TINY, extra) + ["--out", str(out)], expect=2)
