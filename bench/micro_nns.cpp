@@ -18,8 +18,9 @@
 // when built in, the newest) at every distance on every pair in both orders; under 100 ns a query at
 // <= 0.1 m on fig3 and the SICK pair; ICP with ours at least 2.5x faster than with the faster nanoflann on
 // every real pair; an ICP step under 10 ns a correspondence; building at least 2x
-// faster than the faster nanoflann; ours at least 1.8x faster on 2 threads than on one (wall time). Use --benchmark_out=FILE --benchmark_out_format=json for the raw
-// results and --benchmark_filter to run part of it (what did not run prints as "not run"). The reference
+// faster than the faster nanoflann; ours at least 1.8x faster on 2 threads than on one (wall time). Use
+// --benchmark_out=FILE --benchmark_out_format=json for the raw results (written whole at the end, through a
+// temporary) and --benchmark_filter to run part of it (what did not run prints as "not run"). The reference
 // run adds --benchmark_repetitions=7 --benchmark_min_time=0.2 --benchmark_enable_random_interleaving=true:
 // a ratio's two sides then sample the same spells of a shared machine.
 #include "cli_common.hpp"
@@ -87,6 +88,18 @@ int& max_threads() {
 std::string& data_dir() {
   static std::string dir;
   return dir;
+}
+
+// --benchmark_out as given, and the argument Google Benchmark gets instead (empty: none given): the file's
+// temporary, moved in place once the run ends, so that an interrupted run leaves the last whole file.
+std::string& out_path() {
+  static std::string path;
+  return path;
+}
+
+std::string& out_argument() {
+  static std::string argument;
+  return argument;
 }
 
 nnb::datasets::DataOptions data_options() {
@@ -705,6 +718,10 @@ std::optional<int> take_shared_options(int& argc, char** argv) {
         std::cerr << "micro_nns: error: --data-dir: not a folder: " << data_dir() << "\n";
         return 2;
       }
+    } else if (arg.rfind("--benchmark_out=", 0) == 0) {
+      out_path() = arg.substr(std::strlen("--benchmark_out="));
+      out_argument() = "--benchmark_out=" + nnb::files::temporary_path(out_path());
+      argv[kept++] = out_argument().data();
     } else {
       argv[kept++] = argv[i];
     }
@@ -732,6 +749,17 @@ int main(int argc, char** argv) {
     std::cerr << "micro_nns: error: unknown option '" << argv[1] << "' (see --help)\n";
     return 2;
   }
+  std::optional<nnb::files::OutputLock> lock;
+  try {
+    if (!out_argument().empty()) {  // given, even if empty
+      nnb::files::check_output_path(out_path());
+      lock.emplace(out_path());
+      nnb::files::remove_stale_temporaries(out_path());
+    }
+  } catch (const nnb::InputError& e) {
+    std::cerr << "micro_nns: error: " << e.what() << "\n";
+    return 2;
+  }
   const Subjects all = subjects();
   register_all(all);
   RatioReporter reporter;
@@ -739,5 +767,8 @@ int main(int argc, char** argv) {
   print_targets(reporter);
   print_memory(all);
   benchmark::Shutdown();
-  return 0;
+  return out_argument().empty() ? 0 : nnb::cli::run_reporting_errors("micro_nns", [] {
+    nnb::files::commit_temporary(out_path());
+    return 0;
+  });
 }

@@ -1,13 +1,16 @@
 #!/usr/bin/env python3
-"""micro_nns on part of its benchmarks: every target it ran is judged PASS or MISS, the rest "not run".
+"""micro_nns on part of its benchmarks: every target it ran is judged PASS or MISS, the rest "not run"; its
+results file is written whole or not at all.
 
 Usage: test_micro_nns.py MICRO_NNS. Never a timing: the verdicts themselves may go either way."""
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 
 import real_data
 
@@ -15,6 +18,35 @@ FILTER = ("^(IcpStep/fig3|Build/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)"
           "|Ranged1NN/fig3/(ours_kdtree|ours_octree|nanoflann_kdtree)/0.10(/threads:2/real_time)?"
           "|Icp/office-sick-3dtk/(ours_kdtree|nanoflann_kdtree))$")
 VERDICT = r"(PASS|MISS)"
+
+
+def check_results_file(micro_nns, out_json, failures):
+    """--benchmark_out is written whole or not at all: an interrupted run leaves the earlier file as it was,
+    the next run clears its temporary; a path that cannot be written is refused before any work."""
+    folder = os.path.dirname(out_json)
+    before = open(out_json, "rb").read()
+    run = subprocess.Popen([micro_nns, "--benchmark_filter=^Ranged1NN/fig3/", f"--benchmark_out={out_json}"],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    temporary = os.path.join(folder, f".micro.json.tmp.{run.pid}")
+    deadline = time.monotonic() + 120
+    while not os.path.exists(temporary) and run.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if not os.path.exists(temporary):
+        failures.append(f"no temporary {temporary} while the run wrote (exit {run.poll()})")
+    run.send_signal(signal.SIGINT)
+    run.wait(timeout=60)
+    if open(out_json, "rb").read() != before:
+        failures.append("an interrupted run changed the earlier results file")
+    again = subprocess.run([micro_nns, "--benchmark_filter=^Build/fig3/ours_kdtree$", "--benchmark_min_time=0.01",
+                            f"--benchmark_out={out_json}"], capture_output=True, text=True, timeout=120)
+    names = [b["name"] for b in json.load(open(out_json))["benchmarks"]] if again.returncode == 0 else []
+    if names != ["Build/fig3/ours_kdtree"]:
+        failures.append(f"the run after it: exit {again.returncode}, benchmarks {names}")
+    if sorted(os.listdir(folder)) != ["micro.json"]:
+        failures.append(f"left beside the results file: {sorted(os.listdir(folder))}")
+    bad = subprocess.run([micro_nns, f"--benchmark_out={folder}"], capture_output=True, text=True, timeout=60)
+    if bad.returncode != 2 or len(bad.stderr.strip().splitlines()) != 1:
+        failures.append(f"--benchmark_out=FOLDER: exit {bad.returncode}, stderr {bad.stderr!r}")
 
 
 def main(micro_nns):
@@ -63,6 +95,7 @@ def main(micro_nns):
         bad = subprocess.run([micro_nns, *args], capture_output=True, text=True, timeout=60)
         if bad.returncode != 2 or len(bad.stderr.strip().splitlines()) != 1:
             failures.append(f"{' '.join(args)}: exit {bad.returncode}, stderr {bad.stderr!r}")
+    check_results_file(micro_nns, out_json, failures)
     for f in failures:
         print("FAIL:", f)
     if failures:

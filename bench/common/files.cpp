@@ -56,6 +56,24 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   }
 }
 
+std::string temporary_path(const std::string& path) { return temporary_for(fs::path(path)).string(); }
+
+void commit_temporary(const std::string& path) {
+  const fs::path target(path);
+  const fs::path temp = temporary_for(target);
+  std::error_code ec;
+  const int fd = ::open(temp.c_str(), O_RDONLY | O_CLOEXEC);
+  const bool synced = fd >= 0 && ::fsync(fd) == 0;
+  const int error = errno;
+  if (fd >= 0) ::close(fd);
+  if (synced) fs::rename(temp, target, ec);
+  if (!synced || ec) {
+    std::error_code ignored;
+    fs::remove(temp, ignored);
+    throw InputError("cannot write " + path + ": " + (synced ? ec.message() : std::strerror(error)));
+  }
+}
+
 void check_output_path(const std::string& path, const std::vector<std::string>& inputs) {
   if (path.empty()) throw InputError("the output path is empty");
   const fs::path target(path);

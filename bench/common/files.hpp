@@ -11,6 +11,13 @@ namespace nnb::files {
 /// InputError with one line when the file cannot be written.
 void write_file_atomically(const std::string& path, const std::string& text);
 
+/// The temporary write_file_atomically writes path through, in this process: for a writer that streams
+/// (Google Benchmark's --benchmark_out) into it, then moves it in place with commit_temporary.
+std::string temporary_path(const std::string& path);
+/// Moves path's temporary (temporary_path) in place, after an fsync; InputError with one line when it
+/// cannot (the temporary is then removed).
+void commit_temporary(const std::string& path);
+
 /// Refuses (InputError) an output path that cannot be written: a directory, a folder that cannot be
 /// created or written, or one of the inputs (compared as files, not as names). Writes nothing.
 void check_output_path(const std::string& path, const std::vector<std::string>& inputs = {});
