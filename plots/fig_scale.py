@@ -3,6 +3,7 @@ and each adapter's growth exponent (least-squares slope of log time against log 
 import numpy as np
 
 import style
+from files import write_atomically
 from results_io import is_default_strategy, latest_builds, warn
 
 plt = style.plt
@@ -80,7 +81,7 @@ def write_exponents(key, table, out_dir):
                      f"{_sig(last_build)} | {stopped.replace('|', '/')} |")
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "scale_exponents.md"
-    path.write_text("\n".join(lines) + "\n")
+    write_atomically(path, "\n".join(lines) + "\n")
     print(f"wrote {path}")
     return path
 

@@ -7,6 +7,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import claims_other  # noqa: E402
+from files import write_atomically  # noqa: E402
 import claims_sweep  # noqa: E402
 import provenance  # noqa: E402
 import results_io  # noqa: E402
@@ -69,7 +70,7 @@ def main(argv=None):
     check = provenance.check_or_exit(results, args, "findings")
     verdicts = evaluate(results, args.small)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(render(results, verdicts, check))
+    write_atomically(args.out, render(results, verdicts, check))
     for v in verdicts:
         print(f"claim {v.number}: {v.verdict}")
     print(f"wrote {args.out}")

@@ -7,6 +7,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fig_build  # noqa: E402
+from files import write_atomically  # noqa: E402
 import fig_icp  # noqa: E402
 import fig_scale  # noqa: E402
 import fig_speedup  # noqa: E402
@@ -22,7 +23,7 @@ def write_provenance(check, out_dir):
     """PROVENANCE.md beside the figures: the inputs they were drawn from, and the warning if any."""
     out_dir.mkdir(parents=True, exist_ok=True)
     lines = ["# Inputs of these figures", ""] + ([f"**{check.banner()}**", ""] if check.marks else [])
-    (out_dir / "PROVENANCE.md").write_text("\n".join(lines + [f"- {line}" for line in check.lines]) + "\n")
+    write_atomically(out_dir / "PROVENANCE.md", "\n".join(lines + [f"- {line}" for line in check.lines]) + "\n")
 
 
 # Every figure make_figures draws: one left in the folder from earlier inputs that these no longer allow would be

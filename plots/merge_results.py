@@ -14,10 +14,12 @@ came from. Written atomically (temporary file, then rename). A run_icp cell is o
 """
 import argparse
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from files import write_atomically  # noqa: E402
 
 PROG = "merge_results.py"
 
@@ -190,20 +192,6 @@ def merged_context(docs, paths):
          "records": len(doc["benchmarks"])}
         for doc, path in by_index]
     return context
-
-
-def write_atomically(path, text):
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.tmp.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as out:
-            out.write(text)
-            out.flush()
-            os.fsync(out.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
 
 
 def results_text(context, records):

@@ -13,6 +13,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fig_icp  # noqa: E402
+from files import write_atomically  # noqa: E402
 import fig_scale  # noqa: E402
 import findings  # noqa: E402
 import provenance  # noqa: E402
@@ -358,7 +359,7 @@ def main(argv=None):
     text = args.readme.read_text()
     new = refresh(text, results)
     if args.write:
-        args.readme.write_text(new)
+        write_atomically(args.readme, new)
         print(f"readme_tables: {len(BLOCK.findall(new))} blocks written in {args.readme}")
         return 0
     if new != text:

@@ -12,6 +12,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fig_build  # noqa: E402
+from files import write_atomically  # noqa: E402
 import fig_icp  # noqa: E402
 import fig_scale  # noqa: E402
 import fig_speedup  # noqa: E402
@@ -306,7 +307,7 @@ def main(argv=None):
     check = provenance.check_or_exit(results, args, "report")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "report.html"
-    path.write_text(render(results, plotly_js(), check))
+    write_atomically(path, render(results, plotly_js(), check))
     print(f"wrote {path}")
     return 0
 

@@ -12,6 +12,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 from PIL import Image  # noqa: E402  (matplotlib depends on Pillow)
 
+from files import written_atomically  # noqa: E402
+
 MAX_WIDTH_PX = 1600
 DPI = 110
 PAGE_WIDTH_IN = 14.0  # 1540 px at DPI: room for the tight bounding box
@@ -198,6 +200,13 @@ def ranged_panels_figure(results, panels, draw, cols, panel_height, title, title
 WARNING = ""
 
 
+def save_png(fig, path):
+    fig.savefig(path, bbox_inches="tight", dpi=DPI)
+    width = Image.open(path).size[0]
+    if width > MAX_WIDTH_PX:  # a long label widened the tight box: shrink rather than overflow a page
+        fig.savefig(path, bbox_inches="tight", dpi=DPI * MAX_WIDTH_PX / width * 0.99)
+
+
 def save(fig, out_dir, stem):
     """Writes stem.png (at most MAX_WIDTH_PX wide) and stem.svg; returns the png path."""
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -205,11 +214,9 @@ def save(fig, out_dir, stem):
         fig.text(0.5, 1.0, WARNING, ha="center", va="bottom", color="#b00020", fontsize=9, fontweight="bold",
                  wrap=True)
     png = out_dir / f"{stem}.png"
-    fig.savefig(png, bbox_inches="tight", dpi=DPI)
-    width = Image.open(png).size[0]
-    if width > MAX_WIDTH_PX:  # a long label widened the tight box: shrink rather than overflow a page
-        fig.savefig(png, bbox_inches="tight", dpi=DPI * MAX_WIDTH_PX / width * 0.99)
-    fig.savefig(out_dir / f"{stem}.svg", bbox_inches="tight", metadata={"Date": None})
+    written_atomically(png, lambda tmp: save_png(fig, tmp))
+    written_atomically(out_dir / f"{stem}.svg", lambda tmp: fig.savefig(tmp, bbox_inches="tight",
+                                                                        metadata={"Date": None}))
     plt.close(fig)
     print(f"wrote {png} (+ .svg)")
     return png

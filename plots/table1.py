@@ -12,6 +12,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import results_io  # noqa: E402
+from files import write_atomically  # noqa: E402
 from results_io import warn  # noqa: E402
 from style import LIBRARY_STRATEGIES, STRATEGY_TEXT  # noqa: E402
 
@@ -64,7 +65,7 @@ def write_table1(results, out_dir):
         return None
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "table1.md"
-    path.write_text("# Table 1: libraries and how each search kind is answered\n\n"
+    write_atomically(path, "# Table 1: libraries and how each search kind is answered\n\n"
                     "native: the library's own search; via k-NN / via radius / via box: emulated on top of that "
                     "search and filtered by distance; no: not offered; ?: not recorded.\n\n"
                     + "\n".join(table1_lines(results)) + "\n")

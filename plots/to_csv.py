@@ -5,9 +5,14 @@ Columns are the union of the records' fields (scalars as they are, lists and obj
 appearance, with the file's experiment, date and host in front, for spreadsheets and pandas."""
 import argparse
 import csv
+import io
 import json
 import sys
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from files import written_atomically  # noqa: E402
 
 CONTEXT_COLUMNS = ("experiment", "date", "host_name")
 
@@ -49,13 +54,20 @@ def main(argv=None):
         print(f"to_csv: {args.results} is not a results file (no 'benchmarks' list)", file=sys.stderr)
         return 2
     columns, rows = rows_of(doc)
-    out = open(args.out, "w", newline="") if args.out else sys.stdout
-    with out if args.out else open(sys.stdout.fileno(), "w", newline="", closefd=False) as stream:
-        writer = csv.DictWriter(stream, fieldnames=columns, restval="")
-        writer.writeheader()
-        writer.writerows(rows)
-    if args.out:
-        print(f"to_csv: {len(rows)} records -> {args.out}", file=sys.stderr)
+    text = io.StringIO(newline="")
+    writer = csv.DictWriter(text, fieldnames=columns, restval="")
+    writer.writeheader()
+    writer.writerows(rows)
+    if not args.out:
+        with open(sys.stdout.fileno(), "w", newline="", closefd=False) as stream:
+            stream.write(text.getvalue())
+        return 0
+    try:
+        written_atomically(args.out, lambda tmp: Path(tmp).write_bytes(text.getvalue().encode()))
+    except OSError as err:
+        print(f"to_csv: cannot write {args.out}: {err.strerror}", file=sys.stderr)
+        return 2
+    print(f"to_csv: {len(rows)} records -> {args.out}", file=sys.stderr)
     return 0
 
 

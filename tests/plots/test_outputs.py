@@ -1,6 +1,7 @@
 """to_csv.py and report.py on fixture results; readme_tables.py on a README of marked blocks."""
 import csv
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -8,6 +9,7 @@ import unittest
 from pathlib import Path
 
 import fixtures
+import files  # noqa: E402  (fixtures puts plots/ on the path)
 
 PLOTS = fixtures.PLOTS_DIR
 
@@ -41,6 +43,31 @@ class OutputsTest(unittest.TestCase):
         bad = self.dir / "bad.json"
         bad.write_text("{}")
         self.assertEqual(run("to_csv.py", bad).returncode, 2)
+
+    def test_csv_to_a_path_that_cannot_be_written_is_one_line_and_exit_2(self):
+        path = fixtures.write_all(self.dir)[0]
+        proc = run("to_csv.py", path, "--out", self.dir / "absent" / "out.csv")
+        self.assertEqual(proc.returncode, 2, proc.stderr)
+        self.assertEqual(len(proc.stderr.strip().splitlines()), 1, proc.stderr)
+
+    def test_outputs_are_written_whole_or_not_at_all(self):
+        target = self.dir / "README.md"
+        target.write_text("the last whole file\n")
+
+        def half_then_fail(tmp):
+            Path(tmp).write_text("half of a")
+            raise KeyboardInterrupt
+
+        with self.assertRaises(KeyboardInterrupt):
+            files.written_atomically(target, half_then_fail)
+        self.assertEqual(target.read_text(), "the last whole file\n")
+        self.assertEqual(sorted(p.name for p in self.dir.iterdir()), ["README.md"])
+        files.write_atomically(target, "new\n")
+        self.assertEqual(target.read_text(), "new\n")
+        mask = os.umask(0)
+        os.umask(mask)
+        self.assertEqual(target.stat().st_mode & 0o777, 0o666 & ~mask)  # not mkstemp's 0600
+        self.assertEqual(sorted(p.name for p in self.dir.iterdir()), ["README.md"])
 
     def test_report_is_one_self_contained_page(self):
         files = fixtures.write_all(self.dir) + [fixtures.approx_file(self.dir / "approx.json")]
