@@ -69,6 +69,14 @@ std::string to_csv(const nnb::Neighbours& found) {
   return text;
 }
 
+// Whether two paths name one file, existing or not (links followed).
+bool same_path(const std::string& a, const std::string& b) {
+  std::error_code error_a, error_b;
+  const auto path_a = std::filesystem::weakly_canonical(a, error_a);
+  const auto path_b = std::filesystem::weakly_canonical(b, error_b);
+  return !error_a && !error_b && path_a == path_b;
+}
+
 // Outputs are checked before any work: a bad path fails at once, and an input file is never replaced.
 void check_outputs(const Options& opt, const std::vector<nnb::datasets::NamedCloud>& clouds) {
   std::vector<std::string> inputs;
@@ -77,6 +85,9 @@ void check_outputs(const Options& opt, const std::vector<nnb::datasets::NamedClo
   }
   if (!opt.out.empty() && opt.out != "-") nnb::files::check_output_path(opt.out, inputs);
   if (!opt.stats.empty()) nnb::files::check_output_path(opt.stats, inputs);
+  if (!opt.out.empty() && !opt.stats.empty() && same_path(opt.out, opt.stats)) {
+    throw nnb::InputError("--out and --stats are the same file, " + opt.out + ": the one would replace the other");
+  }
 }
 
 // Every neighbour becomes a CSV row, so the answer is bounded before it is computed: k-NN and ranged by
@@ -289,10 +300,12 @@ int main(int argc, char** argv) {
                "With --list: print every adapter's declared metadata as JSON, as a results file's context "
                "'adapters' holds it (plots/table1.py --from-registry makes Table 1 from it)")
       ->needs(list);
-  app.add_option("--describe-real-pairs", opt.describe_pairs,
+  auto* describe = app.add_option("--describe-real-pairs", opt.describe_pairs,
                  "Load every real pair and write its scans' point counts (kept, dropped by kind) as JSON to this file");
-  app.add_option("--model", opt.model, "Model cloud: a file, a shape (hollow_sphere, ...) or a real pair name");
-  app.add_option("--query", opt.query, "Query cloud: a file, a shape, or a real pair (its query scan at its pose)");
+  app.add_option("--model", opt.model, "Model cloud: a file, a shape (hollow_sphere, ...) or a real pair name")
+      ->excludes(describe);
+  app.add_option("--query", opt.query, "Query cloud: a file, a shape, or a real pair (its query scan at its pose)")
+      ->excludes(describe);
   app.add_option("--adapter", opt.adapter, "Adapter name (see --list)")->capture_default_str();
   app.add_option("--search", opt.search, "knn, radius or ranged")->capture_default_str();
   app.add_option("--strategy", opt.strategy,

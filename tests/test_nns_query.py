@@ -226,9 +226,18 @@ class BadInput(unittest.TestCase):
             with open(cloud) as f:
                 self.assertEqual(f.read(), before)
 
+    def test_outputs_are_never_one_file(self):
+        out = os.path.join(self.dir, "answer.csv")
+        result = run("--model", "hollow_cube", "--query", "hollow_cube", "--points", "20", "--out", out,
+                     "--stats", os.path.join(self.dir, ".", "answer.csv"))
+        self.assertEqual(result.returncode, 2, result.stderr)
+        self.assertIn("same file", result.stderr)
+        self.assertFalse(os.path.exists(out))
+
     def test_command_line_errors_are_one_line_and_exit_2(self):
         for bad in (["--k", "abc"], ["--no-such-option"], ["--threads", "0"], ["--threads", "100000"],
-                    ["--data-dir", os.path.join(self.dir, "absent"), "--model", "hollow_cube", "--query", "hollow_cube"]):
+                    ["--data-dir", os.path.join(self.dir, "absent"), "--model", "hollow_cube", "--query", "hollow_cube"],
+                    ["--describe-real-pairs", os.path.join(self.dir, "pairs.json"), "--model", "hollow_cube"]):
             result = run(*bad)
             self.assertEqual(result.returncode, 2)
             self.assertEqual(len(result.stderr.strip().splitlines()), 1, result.stderr)
