@@ -395,7 +395,9 @@ int run_experiment(const ExperimentFlags& flags, const ds::DataOptions& data) {
     return 0;
   }
   const std::string out_path = flags.out.empty() ? nnb::sweep::shard_path(e.out, shard) : flags.out;
-  nnb::files::check_output_path(out_path, {experiment_path(flags.name)});
+  std::vector<std::string> inputs{experiment_path(flags.name)};
+  if (!e.buckets_from.empty()) inputs.push_back(e.buckets_from);
+  nnb::files::check_output_path(out_path, inputs);
   const nnb::files::OutputLock lock(out_path);
   nnb::files::remove_stale_temporaries(out_path);
   ResultsFile results(out_path, experiment_context(e, adapters, plan, shard, data));

@@ -297,7 +297,7 @@ def case_shards():
 
 def case_buckets():
     """--buckets-from runs each adapter at its fastest bucket in a bucket sweep, failed runs left out; 'none',
-    its default; a missing file exits 2 with one line."""
+    its default; a missing file exits 2 with one line, and so does an --out over it."""
     work = WORK / "buckets"
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
@@ -334,6 +334,11 @@ def case_buckets():
     lines = [line for line in proc.stderr.splitlines() if line.strip() and "WARNING" not in line and "warning" not in line]
     if len(lines) != 1 or "absent.json" not in lines[0] or (work / "x.json").exists():
         fail(f"--buckets-from a missing file: {proc.stderr}")
+    before = (work / "bucket.json").read_bytes()
+    proc = ran(experiment + ["--buckets-from", str(work / "bucket.json"), "--out", str(work / "bucket.json")],
+               expect=2)
+    if "input file" not in proc.stderr or (work / "bucket.json").read_bytes() != before:
+        fail(f"--out over the --buckets-from file: {proc.stderr}")
 
 
 if __name__ == "__main__":
