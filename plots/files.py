@@ -24,5 +24,11 @@ def written_atomically(path, write):
         raise
 
 
+def is_one_of(path, others):
+    """Whether path names the same file as one of others (existing or not, links followed)."""
+    target = Path(path).resolve()
+    return any(Path(other).resolve() == target for other in others)
+
+
 def write_atomically(path, text):
     written_atomically(path, lambda tmp: Path(tmp).write_text(text))

@@ -7,7 +7,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import claims_other  # noqa: E402
-from files import write_atomically  # noqa: E402
+from files import is_one_of, write_atomically  # noqa: E402
 import claims_sweep  # noqa: E402
 import provenance  # noqa: E402
 import results_io  # noqa: E402
@@ -60,6 +60,9 @@ def main(argv=None):
     provenance.add_arguments(parser)
     args = parser.parse_args(argv)
     paths = args.results or results_io.default_inputs()
+    if is_one_of(args.out, paths):
+        print(f"findings: refused: --out {args.out} is one of the results files it reads", file=sys.stderr)
+        return 2
     if not paths:
         print("findings: no results files (results/reference/*.json or results/*.json): nothing to judge")
         return 0

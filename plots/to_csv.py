@@ -12,7 +12,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from files import written_atomically  # noqa: E402
+from files import is_one_of, written_atomically  # noqa: E402
 
 CONTEXT_COLUMNS = ("experiment", "date", "host_name")
 
@@ -45,6 +45,9 @@ def main(argv=None):
     parser.add_argument("results", type=Path)
     parser.add_argument("--out", type=Path, help="CSV file (default: standard output)")
     args = parser.parse_args(argv)
+    if args.out and is_one_of(args.out, [args.results]):
+        print(f"to_csv: refused: --out {args.out} is the results file it reads", file=sys.stderr)
+        return 2
     try:
         doc = json.loads(args.results.read_text())
     except (OSError, ValueError) as err:

@@ -50,6 +50,15 @@ class OutputsTest(unittest.TestCase):
         self.assertEqual(proc.returncode, 2, proc.stderr)
         self.assertEqual(len(proc.stderr.strip().splitlines()), 1, proc.stderr)
 
+    def test_an_output_over_an_input_is_refused(self):
+        path = fixtures.write_all(self.dir)[0]
+        before = path.read_bytes()
+        for script in ("to_csv.py", "findings.py"):
+            proc = run(script, path, "--out", path.parent / "." / path.name)
+            self.assertEqual(proc.returncode, 2, f"{script}: {proc.stderr}")
+            self.assertIn("refused", proc.stderr)
+            self.assertEqual(path.read_bytes(), before, script)
+
     def test_outputs_are_written_whole_or_not_at_all(self):
         target = self.dir / "README.md"
         target.write_text("the last whole file\n")
