@@ -229,7 +229,7 @@ def main(argv=None):
         try:
             doc = load_doc(path)
             loaded.append((*read_cells(path, doc), icp_outcomes(doc)))
-        except (OSError, ValueError) as err:
+        except (OSError, ValueError, RecursionError) as err:
             print(f"compare_runs: {path}: cannot read results ({err})", file=sys.stderr)
             return 2
     (a_ctx, a_cells, a_icp), (b_ctx, b_cells, b_icp) = loaded

@@ -69,7 +69,7 @@ def main(argv=None):
     results = results_io.load(paths, prefer=args.prefer, statistic=args.statistic)
     if not results.files:
         print("findings: none of the given files could be read", file=sys.stderr)
-        return 1
+        return 2
     check = provenance.check_or_exit(results, args, "findings")
     verdicts = evaluate(results, args.small)
     args.out.parent.mkdir(parents=True, exist_ok=True)

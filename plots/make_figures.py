@@ -57,7 +57,7 @@ def main(argv=None):
     results = results_io.load(paths, prefer=args.prefer)
     if not results.files:
         print("make_figures: none of the given files could be read", file=sys.stderr)
-        return 1
+        return 2
     check = provenance.check_or_exit(results, args, "make_figures")
     write_provenance(check, args.out)
     style.WARNING = check.banner()

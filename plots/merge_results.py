@@ -31,7 +31,7 @@ class Refused(Exception):
 def load_shard(path):
     try:
         doc = json.loads(Path(path).read_text())
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, RecursionError) as e:
         raise Refused(f"{path}: not a results file ({e})")
     context = doc.get("context", {}) if isinstance(doc, dict) else {}
     if "benchmarks" not in doc or "shard" not in context or "shard" not in context.get("config", {}):

@@ -303,7 +303,7 @@ def main(argv=None):
     results = results_io.load(paths, prefer=args.prefer)
     if not results.files:
         print("report: no results file could be read", file=sys.stderr)
-        return 1
+        return 2
     check = provenance.check_or_exit(results, args, "report")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "report.html"

@@ -443,7 +443,7 @@ def load(paths, prefer=None, statistic="median"):
     for path in paths:
         try:
             doc = json.loads(Path(path).read_text())
-        except (OSError, ValueError) as err:
+        except (OSError, ValueError, RecursionError) as err:  # RecursionError: nested deeper than Python reads
             warn(f"{path}: cannot read results ({err}): ignored")
             continue
         if not isinstance(doc, dict) or not isinstance(doc.get("benchmarks"), list):

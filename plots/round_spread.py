@@ -127,7 +127,7 @@ def main():
         doc = json.loads(Path(path).read_text())
         cells = cell_rounds(doc)
         cuts = budget_cuts(doc) if args.budget_cuts else None
-    except (OSError, ValueError, AttributeError) as e:
+    except (OSError, ValueError, AttributeError, RecursionError) as e:
         print(f"round_spread.py: {path}: {e}", file=sys.stderr)
         return 2
     if not cells:

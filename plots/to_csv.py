@@ -50,7 +50,7 @@ def main(argv=None):
         return 2
     try:
         doc = json.loads(args.results.read_text())
-    except (OSError, ValueError) as err:
+    except (OSError, ValueError, RecursionError) as err:  # RecursionError: nested deeper than Python reads
         print(f"to_csv: cannot read {args.results}: {err}", file=sys.stderr)
         return 2
     if not isinstance(doc, dict) or not isinstance(doc.get("benchmarks"), list):

@@ -50,6 +50,22 @@ class OutputsTest(unittest.TestCase):
         self.assertEqual(proc.returncode, 2, proc.stderr)
         self.assertEqual(len(proc.stderr.strip().splitlines()), 1, proc.stderr)
 
+    def test_unreadable_results_are_bad_input_not_a_crash(self):
+        nested = self.dir / "nested.json"  # deeper than Python's JSON reader recurses
+        nested.write_text("[" * 100000 + "]" * 100000)
+        garbage = self.dir / "garbage.json"
+        garbage.write_text("{ not json")
+        out = self.dir / "out"
+        for bad in (nested, garbage):
+            for script, *args in (("findings.py", bad, "--out", out / "F.md"),
+                                  ("to_csv.py", bad, "--out", out / "x.csv"),
+                                  ("make_figures.py", bad, "--out", out), ("report.py", bad, "--out", out),
+                                  ("compare_runs.py", bad, bad), ("merge_results.py", bad, "--out", out / "m.json"),
+                                  ("round_spread.py", bad)):
+                proc = run(script, *args)
+                self.assertEqual(proc.returncode, 2, f"{script} {bad.name}: {proc.stderr[-500:]}")
+                self.assertNotIn("Traceback", proc.stderr, f"{script} {bad.name}")
+
     def test_an_output_over_an_input_is_refused(self):
         path = fixtures.write_all(self.dir)[0]
         before = path.read_bytes()
