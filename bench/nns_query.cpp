@@ -25,6 +25,9 @@
 
 namespace {
 
+// Most calls --repeat may ask for (each call's time is kept for the median).
+constexpr int kMaxRepeat = 10000;
+
 struct Options {
   std::string model, query, adapter = "brute_force", search = "ranged", strategy, out, stats, describe_pairs;
   int k = 1;
@@ -244,7 +247,9 @@ int run(const Options& opt) {
     return 0;
   }
   if (opt.model.empty() || opt.query.empty()) throw nnb::InputError("--model and --query are required");
-  if (opt.repeat < 1) throw nnb::InputError("--repeat must be at least 1");
+  if (opt.repeat < 1 || opt.repeat > kMaxRepeat) {
+    throw nnb::InputError("--repeat must be from 1 to " + std::to_string(kMaxRepeat));
+  }
   const nnb::SearchKind kind = nnb::parse_search_kind(opt.search);
   auto index = nnb::make_adapter(opt.adapter, nnb::cli::parse_params(opt.params));
   const nnb::Strategy strategy = chosen_strategy(opt, kind, index->info());
@@ -318,7 +323,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", opt.threads,
                  "Threads each search may use (adapters that cannot share an index use one; the stats say how many)")
       ->check(CLI::Range(1, nnb::SearchIndex::kMaxThreads));
-  app.add_option("--repeat", opt.repeat, "Answer the query set N times; query_seconds is the median")
+  app.add_option("--repeat", opt.repeat, "Answer the query set N times (1 to 10000); query_seconds is the median")
       ->capture_default_str();
   app.add_option("--stats", opt.stats, "Write JSON statistics to this file");
   app.add_flag("--check", opt.check,

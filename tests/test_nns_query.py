@@ -237,7 +237,8 @@ class BadInput(unittest.TestCase):
     def test_command_line_errors_are_one_line_and_exit_2(self):
         for bad in (["--k", "abc"], ["--no-such-option"], ["--threads", "0"], ["--threads", "100000"],
                     ["--data-dir", os.path.join(self.dir, "absent"), "--model", "hollow_cube", "--query", "hollow_cube"],
-                    ["--describe-real-pairs", os.path.join(self.dir, "pairs.json"), "--model", "hollow_cube"]):
+                    ["--describe-real-pairs", os.path.join(self.dir, "pairs.json"), "--model", "hollow_cube"],
+                    ["--model", "hollow_cube", "--query", "hollow_cube", "--points", "10", "--repeat", "2000000000"]):
             result = run(*bad)
             self.assertEqual(result.returncode, 2)
             self.assertEqual(len(result.stderr.strip().splitlines()), 1, result.stderr)

@@ -98,13 +98,15 @@ def case_cli():
         if proc.returncode != 2 or len(lines) != 1 or not lines[0].startswith("run_icp: error: "):
             fail(f"{bad}: exit {proc.returncode}, stderr {proc.stderr!r}")
 
-    # Experiment files with values that would run nothing are refused before any run, not skipped run by run.
-    for label, icp in (("zero_dist", {"max_dist_m": 0}), ("negative_iterations", {"iterations": -1}),
-                       ("negative_stride", {"query_stride": -1}), ("fractional_iterations", {"iterations": 2.5}),
-                       ("zero_threads", {"threads": 0})):
+    # Experiment files with values that would run nothing, or plan more runs than memory holds, are refused
+    # before any run, not skipped run by run.
+    for label, icp, more in (("zero_dist", {"max_dist_m": 0}, {}), ("negative_iterations", {"iterations": -1}, {}),
+                             ("negative_stride", {"query_stride": -1}, {}),
+                             ("fractional_iterations", {"iterations": 2.5}, {}), ("zero_threads", {"threads": 0}, {}),
+                             ("huge_repetitions", {}, {"repetitions": 2000000000})):
         experiment = WORK / f"{label}.json"
         experiment.write_text(json.dumps({"name": label, "pairs": ["office-sick-3dtk"], "adapters": ["brute_force"],
-                                          "icp": icp}))
+                                          "icp": icp, **more}))
         bad_out = WORK / f"{label}_out.json"
         proc = run(["--experiment", str(experiment), "--out", str(bad_out)])
         if proc.returncode != 2 or "error" not in proc.stderr or bad_out.exists():

@@ -21,6 +21,9 @@ struct Settings {
   int threads = 1;               ///< threads each search may use (SearchIndex::set_threads)
 };
 
+/// Most runs of one setting an experiment may ask for: each is a cell of the plan and a record.
+inline constexpr int kMaxRepetitions = 10000;
+
 struct Experiment {
   std::string name;
   std::string description;
@@ -32,7 +35,7 @@ struct Experiment {
   std::map<std::string, Params> params;     ///< extra parameters per adapter
   Settings icp;                             ///< for every pair ...
   std::map<std::string, Settings> icp_by_pair;  ///< ... unless overridden here
-  int repetitions = 1;
+  int repetitions = 1;                      ///< 1 to kMaxRepetitions
   std::string out;                          ///< default output path
   /// An ICP results file with a bucket sweep (Figure 2): each adapter runs at its fastest bucket there,
   /// as the paper ran each library at its optimum. Empty: each adapter's default.

@@ -311,7 +311,9 @@ Experiment load_experiment(const std::string& path) {
       for (const auto& [pair, settings] : it->items()) e.icp_by_pair[pair] = parse_settings(settings, e.icp);
     }
     e.repetitions = j.contains("repetitions") ? bench::whole_number<int>(j["repetitions"], "repetitions") : 1;
-    if (e.repetitions < 1) throw InputError("repetitions must be at least 1");
+    if (e.repetitions < 1 || e.repetitions > kMaxRepetitions) {
+      throw InputError("repetitions must be from 1 to " + std::to_string(kMaxRepetitions));
+    }
     e.out = j.value("out", "results/" + e.name + ".json");
     if (const auto it = j.find("buckets_from"); it != j.end() && !it->is_null()) e.buckets_from = it->get<std::string>();
   } catch (const json::exception& err) {
