@@ -7,10 +7,17 @@
 #                                          (part of the test command: the fuzz build must not rot unseen)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
+die() { echo "fuzz: error: $*" >&2; exit 2; }
+all_targets=(pcd ply text3d xyz bin experiment results icp_results)
 replay=0
 if [ "${1:-}" = "--replay" ]; then replay=1; shift; else seconds="${1:-600}"; shift || true; fi
+[ "$replay" = 1 ] || [[ "$seconds" =~ ^[1-9][0-9]{0,6}$ ]] || die "SECONDS must be a whole number from 1 (got '$seconds')"
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(pcd ply text3d xyz bin experiment results icp_results)
+[ ${#targets[@]} -gt 0 ] || targets=("${all_targets[@]}")
+known() { local t; for t in "${all_targets[@]}"; do [ "$t" = "$1" ] && return 0; done; return 1; }
+for target in "${targets[@]}"; do
+  known "$target" || die "unknown target '$target' (known: ${all_targets[*]})"
+done
 build="$root/build/fuzz"
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNNB_FUZZ=ON \

@@ -5,6 +5,10 @@
 #   EXPERIMENT=paper scripts/run_main.sh   runs another experiment (bench/experiments/*.json)
 #   RESUME=1 scripts/run_main.sh           finishes a killed run instead of starting afresh
 set -euo pipefail
+if [ $# -gt 0 ]; then
+  echo "run_main: error: no arguments taken ('$1'); settings are environment variables, see the head of $0" >&2
+  exit 2
+fi
 cd "$(dirname "$0")/.."
 experiment="${EXPERIMENT:-quick}"
 ./scripts/install_deps.sh

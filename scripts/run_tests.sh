@@ -5,6 +5,10 @@
 # changes); then build the libFuzzer targets and replay their inputs; then the test programs again, built
 # for 64-bit Arm and run under an emulator.
 set -euo pipefail
+if [ $# -gt 0 ]; then
+  echo "run_tests: error: no arguments taken ('$1'); NNB_JOBS=N sets the jobs, see the README" >&2
+  exit 2
+fi
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
 . scripts/anchors.sh
