@@ -18,6 +18,9 @@ PACKAGES=(
   qemu-user-static  # tests on CPUs unlike this one (x86 without AVX; 64-bit Arm)
   clang-14 libclang-rt-14-dev  # the libFuzzer targets (fuzz/)
 )
+for p in "$@"; do
+  case $p in -*) echo "install_deps: error: '$p' is not a package name (no options taken)" >&2; exit 2 ;; esac
+done
 if [ $# -gt 0 ]; then PACKAGES=("$@"); fi
 
 missing=()

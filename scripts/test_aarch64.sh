@@ -6,6 +6,8 @@
 # Usage: scripts/test_aarch64.sh [build folder, default build/aarch64]
 set -euo pipefail
 cd "$(dirname "$0")/.."
+case ${1:-} in -*) echo "test_aarch64: error: '$1' is not a build folder (no options taken)" >&2; exit 2 ;; esac
+[ $# -le 1 ] || { echo "test_aarch64: error: one build folder at most (got $#)" >&2; exit 2; }
 build=${1:-build/aarch64}
 if [ "$(uname -m)" = "aarch64" ]; then
   echo "test_aarch64: this machine is aarch64, and the Release build's tests ran on it natively"

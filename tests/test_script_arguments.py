@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The README's two commands and scripts/fuzz.sh refuse what they do not take with one line and exit 2,
+"""The README's two commands and the scripts they call refuse what they do not take with one line and exit 2,
 before any work. Each runs from a copy in a scratch folder, so that one that stopped refusing fails there at
 once (its next steps are not beside it) instead of starting a build or a test run.
 
@@ -11,7 +11,9 @@ from pathlib import Path
 
 CASES = [("run_main.sh", ["--bogus"], "no arguments taken"), ("run_tests.sh", ["all"], "no arguments taken"),
          ("fuzz.sh", ["--bogus"], "SECONDS must be"), ("fuzz.sh", ["0"], "SECONDS must be"),
-         ("fuzz.sh", ["10", "no_such_target"], "unknown target"), ("fuzz.sh", ["--replay", "pcdx"], "unknown target")]
+         ("fuzz.sh", ["10", "no_such_target"], "unknown target"), ("fuzz.sh", ["--replay", "pcdx"], "unknown target"),
+         ("install_deps.sh", ["--yes"], "not a package name"), ("test_aarch64.sh", ["--clean"], "not a build folder"),
+         ("test_aarch64.sh", ["a", "b"], "one build folder at most")]
 
 
 def main(scripts, work):
