@@ -8,7 +8,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 die() { echo "fuzz: error: $*" >&2; exit 2; }
-all_targets=(pcd ply text3d xyz bin experiment results icp_results)
+all_targets=(pcd ply text3d xyz bin experiment results icp_results icp_experiment)
 replay=0
 if [ "${1:-}" = "--replay" ]; then replay=1; shift; else seconds="${1:-600}"; shift || true; fi
 [ "$replay" = 1 ] || [[ "$seconds" =~ ^[1-9][0-9]{0,6}$ ]] || die "SECONDS must be a whole number from 1 (got '$seconds')"

@@ -98,12 +98,14 @@ def case_cli():
         if proc.returncode != 2 or len(lines) != 1 or not lines[0].startswith("run_icp: error: "):
             fail(f"{bad}: exit {proc.returncode}, stderr {proc.stderr!r}")
 
-    # Experiment files with values that would run nothing, or plan more runs than memory holds, are refused
-    # before any run, not skipped run by run.
+    # Experiment files with values that would run nothing, plan more runs than memory holds, or name what is
+    # not there (a misspelt field, settings of a pair not run) are refused before any run.
     for label, icp, more in (("zero_dist", {"max_dist_m": 0}, {}), ("negative_iterations", {"iterations": -1}, {}),
                              ("negative_stride", {"query_stride": -1}, {}),
                              ("fractional_iterations", {"iterations": 2.5}, {}), ("zero_threads", {"threads": 0}, {}),
-                             ("huge_repetitions", {}, {"repetitions": 2000000000})):
+                             ("huge_repetitions", {}, {"repetitions": 2000000000}),
+                             ("misspelt_field", {}, {"repetitons": 3}),
+                             ("settings_of_no_pair", {}, {"icp_by_pair": {"office-sick": {"iterations": 3}}})):
         experiment = WORK / f"{label}.json"
         experiment.write_text(json.dumps({"name": label, "pairs": ["office-sick-3dtk"], "adapters": ["brute_force"],
                                           "icp": icp, **more}))

@@ -291,6 +291,12 @@ Experiment load_experiment(const std::string& path) {
   Experiment e;
   try {
     const json j = json::parse(in);
+    if (!j.is_object()) throw InputError("an experiment is a JSON object");
+    static const std::set<std::string> known{"name", "description", "pairs", "adapters", "exclude", "bucket_sizes",
+                                             "params", "icp", "icp_by_pair", "repetitions", "out", "buckets_from"};
+    for (const auto& item : j.items()) {  // a misspelt field would otherwise leave its default in force
+      if (!known.count(item.key())) throw InputError("unknown field '" + item.key() + "'");
+    }
     e.name = j.at("name").get<std::string>();
     e.description = j.value("description", "");
     e.pairs = j.at("pairs").get<std::vector<std::string>>();
@@ -308,7 +314,12 @@ Experiment load_experiment(const std::string& path) {
     }
     if (const auto it = j.find("icp"); it != j.end()) e.icp = parse_settings(*it, e.icp);
     if (const auto it = j.find("icp_by_pair"); it != j.end()) {
-      for (const auto& [pair, settings] : it->items()) e.icp_by_pair[pair] = parse_settings(settings, e.icp);
+      for (const auto& [pair, settings] : it->items()) {
+        if (std::find(e.pairs.begin(), e.pairs.end(), pair) == e.pairs.end()) {
+          throw InputError("icp_by_pair names '" + pair + "', which is not one of the pairs");
+        }
+        e.icp_by_pair[pair] = parse_settings(settings, e.icp);
+      }
     }
     e.repetitions = j.contains("repetitions") ? bench::whole_number<int>(j["repetitions"], "repetitions") : 1;
     if (e.repetitions < 1 || e.repetitions > kMaxRepetitions) {
