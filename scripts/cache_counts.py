@@ -3,9 +3,8 @@
 ranged 1-NN batch in nns_query under Valgrind's callgrind, which counts only inside the search call (not loading,
 building or writing rows) and simulates one cache geometry and one branch predictor for every library and machine.
 The batch counted is the second of two, as micro_nns times a batch (the index, its scratch and the caches as the
-first left them; the second run's counts less the first's); --cold counts the first batch in a fresh process. Run
-without address randomisation (setarch -R, where the system allows it: memcpy's and memset's paths, and so the
-counts, depend on their pointers' alignment), the counts are the same on every run, so they stand where this machine kind's timings are too noisy, and they put
+first left them; the second run's counts less the first's); --cold counts the first batch in a fresh process. The
+counts are the same on every run, so they stand where this machine kind's timings are too noisy, and they put
 numbers on the paper's cache argument where the machine exposes no hardware counters. A simulation, not the CPU:
 no prefetchers, one cache level below L1, and a 2-bit counter a branch, which a CPU's history-based predictor beats
 (at a loop's exit above all), so mispredicts compare libraries on one model rather than give cycles.
@@ -20,7 +19,6 @@ The file is rewritten atomically after every row, so a killed run loses at most 
 keeps the rows of a file made by the same binary with the same settings and counts only the others.
 """
 import argparse
-import functools
 import json
 import os
 import re
@@ -130,22 +128,12 @@ def totals(callgrind_out):
     return dict(zip(events, values + [0] * (len(events) - len(values))))
 
 
-@functools.lru_cache(maxsize=None)
-def fixed_addresses():
-    """The words that run a program without address randomisation, so that its counts repeat exactly; none
-    where setarch is missing or the system refuses it (the counts then move by a few between runs)."""
-    words = ["setarch", os.uname().machine, "-R"]
-    if shutil.which("setarch") and subprocess.run(words + ["true"], capture_output=True).returncode == 0:
-        return tuple(words)
-    return ()
-
-
 def run_batches(args, pair, label, batches, work):
     """The events callgrind counted over the first `batches` batches of one adapter on one pair, and nns_query's
     statistics."""
     model, query = model_and_query(pair)
     cg_out, stats = work / "callgrind.out", work / "stats.json"
-    cmd = [*fixed_addresses(), "valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--callgrind-out-file={cg_out}",
+    cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--callgrind-out-file={cg_out}",
            "--toggle-collect=nnb::SearchIndex::ranged*"]
     cmd += [f"--{level}={geometry}" for level, geometry in CACHES.items()]
     cmd += [args.nns_query, "--model", model, "--query", query, "--adapter", label.adapter, "--search", "ranged",
@@ -184,8 +172,7 @@ def header(args):
     valgrind = subprocess.run(["valgrind", "--version"], capture_output=True, text=True).stdout.strip()
     return [f"# cache_counts: {datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')}; command: "
             + " ".join([sys.argv[0]] + sys.argv[1:]),
-            f"# binary: {args.nns_query}: {version}; {valgrind} (callgrind, --cache-sim=yes --branch-sim=yes); "
-            + ("addresses fixed (setarch -R)" if fixed_addresses() else "addresses randomised (no setarch -R here)"),
+            f"# binary: {args.nns_query}: {version}; {valgrind} (callgrind, --cache-sim=yes --branch-sim=yes)",
             f"# settings: max_dist_m {args.max_dist!r}; points {args.points}; batch {batch_counted(args)}; {version}",
             "# simulated caches: " + ", ".join(f"{k} {v} (bytes,ways,line)" for k, v in CACHES.items()),
             "# counted inside SearchIndex::ranged only (the batch, not loading or building); one thread; ranged 1-NN,"
