@@ -132,12 +132,16 @@ def run_batches(args, pair, label, batches, work):
     """The events callgrind counted over the first `batches` batches of one adapter on one pair, and nns_query's
     statistics."""
     model, query = model_and_query(pair)
-    cg_out, stats = work / "callgrind.out", work / "stats.json"
+    cg_out, stats, rows = work / "callgrind.out", work / "stats.json", work / "rows.csv"
+    # Every counted process starts alike: whether its output files already exist changes what it allocates
+    # before the search, and so where the search's buffers fall and the paths memcpy takes through them.
+    for path in (cg_out, stats, rows):
+        path.unlink(missing_ok=True)
     cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--callgrind-out-file={cg_out}",
            "--toggle-collect=nnb::SearchIndex::ranged*"]
     cmd += [f"--{level}={geometry}" for level, geometry in CACHES.items()]
     cmd += [args.nns_query, "--model", model, "--query", query, "--adapter", label.adapter, "--search", "ranged",
-            "--k", "1", "--max-dist", repr(args.max_dist), "--repeat", str(batches), "--out", str(work / "rows.csv"),
+            "--k", "1", "--max-dist", repr(args.max_dist), "--repeat", str(batches), "--out", str(rows),
             "--stats", str(stats)]
     cmd += [arg for param in label.params for arg in ("--param", param)]
     if args.points is not None:
