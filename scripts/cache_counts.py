@@ -133,8 +133,8 @@ def run_batches(args, pair, label, batches, work):
     statistics."""
     model, query = model_and_query(pair)
     cg_out, stats, rows = work / "callgrind.out", work / "stats.json", work / "rows.csv"
-    # Every counted process starts alike: whether its output files already exist changes what it allocates
-    # before the search, and so where the search's buffers fall and the paths memcpy takes through them.
+    # Every counted process starts alike: whether its output files already exist changes a batch's counts
+    # (results/ab/cache_counts_output_files_probe.txt).
     for path in (cg_out, stats, rows):
         path.unlink(missing_ok=True)
     cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--callgrind-out-file={cg_out}",
