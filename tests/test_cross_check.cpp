@@ -422,4 +422,81 @@ GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(EdgeCase);
 INSTANTIATE_TEST_SUITE_P(EveryAdapter, EdgeCase, ::testing::ValuesIn(adapters_under_test()),
                          [](const auto& info) { return info.param; });
 
+// ---- Approximate adapters: real answers, and a declaration each has earned ----
+
+std::vector<std::string> approximate_adapters() {
+  std::vector<std::string> names;
+  for (const auto& name : nnb::adapter_names()) {
+    if (!nnb::make_adapter(name)->info().exact) names.push_back(name);
+  }
+  return names;
+}
+
+// What an approximate row must still be: model points at the distances it reports, none twice, none beyond
+// the limit, at most k, nearest first. Returns failure text or "".
+std::string row_problem(const Cloud& model, const Cloud& queries, const Neighbours& got, std::size_t k,
+                        double limit_sq_m2) {
+  for (std::size_t q = 0; q < got.n_queries(); ++q) {
+    const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
+    std::set<nnb::PointIndex> seen;
+    if (got.count(q) > k) return "query " + std::to_string(q) + ": more than k neighbours";
+    for (std::size_t i = got.offsets[q]; i < got.offsets[q + 1]; ++i) {
+      const std::string where = "query " + std::to_string(q) + ", neighbour " + std::to_string(got.indices[i]);
+      if (got.indices[i] >= static_cast<nnb::PointIndex>(model.cols())) return where + ": index out of range";
+      if (!seen.insert(got.indices[i]).second) return where + ": twice";
+      const double sq_m2 = nnb::sq_dist_m2(query, model.col(got.indices[i]).data());
+      if (std::abs(got.sq_dists[i] - sq_m2) > nnb::testing::sq_tolerance(sq_m2)) return where + ": wrong distance";
+      if (sq_m2 > limit_sq_m2) return where + ": beyond the limit";
+      if (i > got.offsets[q] && got.sq_dists[i] < got.sq_dists[i - 1]) return where + ": row not nearest first";
+    }
+  }
+  return "";
+}
+
+// Queries whose sorted distances differ from brute force's (in count or in any distance).
+std::size_t queries_answered_otherwise(const Neighbours& expected, const Neighbours& got) {
+  std::size_t differ = 0;
+  for (std::size_t q = 0; q < expected.n_queries(); ++q) {
+    bool same = got.count(q) == expected.count(q);
+    for (std::size_t i = 0; same && i < expected.count(q); ++i) {
+      const double want = expected.sq_dists[expected.offsets[q] + i];
+      same = std::abs(got.sq_dists[got.offsets[q] + i] - want) <= nnb::testing::sq_tolerance(want);
+    }
+    differ += same ? 0 : 1;
+  }
+  return differ;
+}
+
+class Approximate : public ::testing::TestWithParam<std::string> {};
+
+// On Figure 3's shapes, every nearest neighbour found is a real row, and some queries get another than brute
+// force's: an adapter that always agreed would be declared exact and cross-checked.
+TEST_P(Approximate, AnswersRealRowsAndMissesSomeNearest) {
+  const Cloud model = make_shape(Shape::hollow_sphere, 20000, 1);
+  const Cloud queries = make_shape(Shape::hollow_cube, 2000, 2);
+  auto reference = nnb::make_adapter("brute_force");
+  auto index = nnb::make_adapter(GetParam());
+  reference->build(model);
+  index->build(model);
+  Neighbours expected, got;
+  std::size_t otherwise = 0;
+  if (index->info().knn != nnb::Strategy::unsupported) {
+    reference->knn(queries, 1, expected);
+    index->knn(queries, 1, got);
+    EXPECT_EQ(row_problem(model, queries, got, 1, std::numeric_limits<double>::infinity()), "") << "knn";
+    otherwise += queries_answered_otherwise(expected, got);
+  }
+  for (const double dist_m : {0.1, 1.0}) {
+    reference->ranged(queries, 1, dist_m, expected);
+    index->ranged(queries, 1, dist_m, got);
+    EXPECT_EQ(row_problem(model, queries, got, 1, dist_m * dist_m), "") << "ranged at " << dist_m << " m";
+    otherwise += queries_answered_otherwise(expected, got);
+  }
+  EXPECT_GT(otherwise, 0u) << GetParam() << " agreed with brute force everywhere: declare it exact";
+}
+
+GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(Approximate);
+INSTANTIATE_TEST_SUITE_P(EveryAdapter, Approximate, ::testing::ValuesIn(approximate_adapters()),
+                         [](const auto& info) { return info.param; });
+
 }  // namespace
