@@ -1,16 +1,15 @@
 // CNearTree (the header-only C++ template <TNear.h>): a near tree after Kalantari and McDonald, pruned by the
 // triangle inequality on the distances its element type returns (here sqrt of our squared distance, double).
 //
-// Three things make it exact. FindK_NearestNeighbors returns the same point twice and misses a neighbour
-// unless its distance cache is off (NTF_NoDistanceCache). It searches in growing annular shells by default;
-// a point that rounding loses at a shell's edge would be gone for good, so the single spherical search
-// (NTF_SphericalKNN) is used, where a lost point can only lie within rounding of the final radius. Every
-// limit is widened by a rounding margin, distances are recomputed in double and cut at <= r, and k+1
-// neighbours are asked for: when the k-th and the next lie within that margin, every point within the k-th
-// distance is fetched (FindInSphere) and cut to k, so ties resolve as brute force resolves them.
-// Insertions are queued until the first search: build() completes them.
+// Two things make it exact besides the margins all square-rooted libraries need (sqrt_libs/exact_sqrt.hpp).
+// FindK_NearestNeighbors returns the same point twice and misses a neighbour unless its distance cache is off
+// (NTF_NoDistanceCache). It searches in growing annular shells by default; a point that rounding loses at a
+// shell's edge would be gone for good, so the single spherical search (NTF_SphericalKNN) is used, where a lost
+// point can only lie within rounding of the final radius. Insertions are queued until the first search:
+// build() completes them.
 #include <TNear.h>
 
+#include "../sqrt_libs/exact_sqrt.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -24,12 +23,6 @@
 
 namespace nnb::adapters {
 namespace {
-
-// Relative rounding margin of the tree's triangle-inequality tests: each is a few additions of distances no
-// longer than (query to model centre + model diameter), rounded to 1e-16 of that; 1e-12 leaves a wide margin.
-constexpr double kRoundingPad = 1e-12;
-
-using Candidate = std::pair<double, PointIndex>;  // (squared distance, index): brute force's order
 
 struct Offset {
   double dx, dy, dz;
@@ -49,22 +42,10 @@ using TreeNode = Tree::NearTreeNode<NearPoint, double, -1>;
 
 NearPoint probe_at(const double* xyz) { return NearPoint{{xyz[0], xyz[1], xyz[2]}, 0}; }
 
-std::vector<Candidate>& exact_sorted(const std::vector<NearPoint>& found, const double* query,
-                                     std::vector<Candidate>& rows) {
+void exact_sorted(const std::vector<NearPoint>& found, const double* query, std::vector<SqrtCandidate>& rows) {
   rows.clear();
   for (const NearPoint& point : found) rows.emplace_back(sq_dist_m2(query, point.xyz), point.index);
   std::sort(rows.begin(), rows.end());
-  return rows;
-}
-
-void write_row(const std::vector<Candidate>& rows, std::size_t k, double limit_sq_m2, Neighbours& out) {
-  std::size_t written = 0;
-  for (const auto& [sq_m2, index] : rows) {
-    if (written == k || sq_m2 > limit_sq_m2) break;
-    out.push(index, sq_m2);
-    ++written;
-  }
-  out.end_query();
 }
 
 class CNearTreeIndex final : public SearchIndex {
@@ -113,16 +94,7 @@ class CNearTreeIndex final : public SearchIndex {
       tree_->insert(NearPoint{{p[0], p[1], p[2]}, static_cast<PointIndex>(i)});
     }
     tree_->CompleteDelayedInsert();  // otherwise the first search would build the tree
-    const Eigen::Vector3d lo = model.rowwise().minCoeff();
-    const Eigen::Vector3d hi = model.rowwise().maxCoeff();
-    centre_ = 0.5 * (lo + hi);
-    diameter_m_ = (hi - lo).norm();
-  }
-
-  // How far rounding may move the tree's pruning decisions for this query, in metres.
-  double rounding_margin_m(const double* query) const {
-    const double to_centre_m = (Eigen::Map<const Eigen::Vector3d>(query) - centre_).norm();
-    return kRoundingPad * (to_centre_m + diameter_m_) + std::numeric_limits<double>::min();
+    margin_.fit(model);
   }
 
   void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
@@ -137,30 +109,20 @@ class CNearTreeIndex final : public SearchIndex {
     const auto n_queries = static_cast<std::size_t>(queries.cols());
     out.reset(n_queries, n_queries * k);
     std::vector<NearPoint> found;
-    std::vector<Candidate> rows;
+    std::vector<SqrtCandidate> rows;
     for (std::size_t q = 0; q < n_queries; ++q) {
       const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
-      write_row(nearest_rows(query, k, max_dist_m, found, rows), k, max_dist_m * max_dist_m, out);
+      const auto nearest = [&](std::size_t n, double search_m, std::vector<SqrtCandidate>& sorted) {
+        tree_->FindK_NearestNeighbors(n, search_m, found, probe_at(query));
+        exact_sorted(found, query, sorted);
+      };
+      const auto within = [&](double search_m, std::vector<SqrtCandidate>& sorted) {
+        tree_->FindInSphere(search_m, found, probe_at(query));
+        exact_sorted(found, query, sorted);
+      };
+      exact_nearest_rows(query, k, max_dist_m, model_size(), margin_, nearest, within, rows);
+      append_row(rows, k, max_dist_m * max_dist_m, out);
     }
-  }
-
-  // At least the k nearest within max_dist_m, sorted as brute force sorts them, ties at the k-th complete.
-  const std::vector<Candidate>& nearest_rows(const double* query, std::size_t k, double max_dist_m,
-                                             std::vector<NearPoint>& found, std::vector<Candidate>& rows) const {
-    const double margin_m = rounding_margin_m(query);
-    const std::size_t fetch = std::min(k + 1, model_size());
-    const double search_m = std::isinf(max_dist_m) ? max_dist_m : max_dist_m * (1.0 + kRoundingPad) + margin_m;
-    tree_->FindK_NearestNeighbors(fetch, search_m, found, probe_at(query));
-    exact_sorted(found, query, rows);
-    // The search lost nothing nearer than its last radius (the (k+1)-th) minus the margin: unless the k-th
-    // lies that close to the (k+1)-th, the k nearest are right.
-    if (rows.size() <= k || std::sqrt(rows[k - 1].first) + margin_m < std::sqrt(rows[k].first)) return rows;
-    const double limit_sq_m2 = std::min(rows[k - 1].first, max_dist_m * max_dist_m);
-    tree_->FindInSphere(std::sqrt(limit_sq_m2) * (1.0 + kRoundingPad) + margin_m, found, probe_at(query));
-    exact_sorted(found, query, rows);
-    rows.erase(std::find_if(rows.begin(), rows.end(), [&](const Candidate& c) { return c.first > limit_sq_m2; }),
-               rows.end());
-    return rows;
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
@@ -170,7 +132,7 @@ class CNearTreeIndex final : public SearchIndex {
     std::vector<NearPoint> found;
     for (std::size_t q = 0; q < n_queries; ++q) {
       const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
-      tree_->FindInSphere(radius_m * (1.0 + kRoundingPad) + rounding_margin_m(query), found, probe_at(query));
+      tree_->FindInSphere(margin_.widened_m(radius_m, query), found, probe_at(query));
       for (const NearPoint& point : found) {
         const double sq_m2 = sq_dist_m2(query, point.xyz);
         if (sq_m2 <= limit_sq_m2) out.push(point.index, sq_m2);
@@ -182,8 +144,7 @@ class CNearTreeIndex final : public SearchIndex {
   // Held by pointer: FindK_NearestNeighbors is not const in the library, though searching changes nothing
   // once every insertion is complete.
   std::unique_ptr<Tree> tree_;
-  Eigen::Vector3d centre_ = Eigen::Vector3d::Zero();
-  double diameter_m_ = 0.0;
+  SqrtMargin margin_;
 };
 
 }  // namespace

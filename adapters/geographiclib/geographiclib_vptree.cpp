@@ -3,13 +3,12 @@
 // (here sqrt of our squared distance, double). Its one search call is a ranged search: the k nearest within
 // maxdist, inclusive, nearest first; with k the number of points it is a radius search.
 //
-// Exact as CNearTree is made exact: the functor's distances are square roots, so every limit is widened by a
-// rounding margin, distances are recomputed in double and cut at <= r, and k+1 neighbours are asked for; when
-// the k-th and the next lie within that margin, every point within the k-th distance is fetched and cut to k,
-// so ties resolve as brute force resolves them. The tree does not keep the points: Search takes them again.
+// Its distances are square roots: made exact as CNearTree is (sqrt_libs/exact_sqrt.hpp). The tree does not
+// keep the points: Search takes them again.
 #include <GeographicLib/Config.h>
 #include <GeographicLib/NearestNeighbor.hpp>
 
+#include "../sqrt_libs/exact_sqrt.hpp"
 #include "nnb/registry.hpp"
 
 #include <algorithm>
@@ -24,12 +23,6 @@
 
 namespace nnb::adapters {
 namespace {
-
-// Relative rounding margin of the tree's triangle-inequality tests: each subtracts two distances no longer
-// than (query to model centre + model diameter), rounded to 1e-16 of that; 1e-12 leaves a wide margin.
-constexpr double kRoundingPad = 1e-12;
-
-using Candidate = std::pair<double, PointIndex>;  // (squared distance, index): brute force's order
 
 struct VpPoint {
   double xyz[3];
@@ -109,33 +102,20 @@ class VpTreeIndex final : public SearchIndex {
     }
     bucket_ = info().bucket->value;
     tree_.Initialize(points_, EuclideanDistance{}, bucket_);
-    const Eigen::Vector3d lo = model.rowwise().minCoeff();
-    const Eigen::Vector3d hi = model.rowwise().maxCoeff();
-    centre_ = 0.5 * (lo + hi);
-    diameter_m_ = (hi - lo).norm();
-  }
-
-  // How far rounding may move the tree's pruning decisions for this query, in metres.
-  double rounding_margin_m(const double* query) const {
-    const double to_centre_m = (Eigen::Map<const Eigen::Vector3d>(query) - centre_).norm();
-    return kRoundingPad * (to_centre_m + diameter_m_) + std::numeric_limits<double>::min();
+    margin_.fit(model);
   }
 
   // Every point the library finds among the k nearest within search_m, as (squared distance, index),
   // sorted as brute force sorts them.
-  void search_sorted(const double* query, std::size_t k, double search_m, std::vector<Candidate>& rows) const {
+  void search_sorted(const double* query, std::size_t k, double search_m, std::vector<SqrtCandidate>& rows) const {
     const VpPoint probe{{query[0], query[1], query[2]}};
-    tree_.Search(points_, EuclideanDistance{}, probe, found_, static_cast<int>(k), search_m);
+    const double limit_m = std::isinf(search_m) ? std::numeric_limits<double>::max() : search_m;
+    tree_.Search(points_, EuclideanDistance{}, probe, found_, static_cast<int>(k), limit_m);
     rows.clear();
     for (const int index : found_) {
       rows.emplace_back(sq_dist_m2(query, points_[static_cast<std::size_t>(index)].xyz), static_cast<PointIndex>(index));
     }
     std::sort(rows.begin(), rows.end());
-  }
-
-  double widened_m(double limit_m, const double* query) const {
-    return std::isinf(limit_m) ? std::numeric_limits<double>::max()
-                               : limit_m * (1.0 + kRoundingPad) + rounding_margin_m(query);
   }
 
   void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
@@ -149,55 +129,36 @@ class VpTreeIndex final : public SearchIndex {
   void search_nearest(const Cloud& queries, std::size_t k, double max_dist_m, Neighbours& out) const {
     const auto n_queries = static_cast<std::size_t>(queries.cols());
     out.reset(n_queries, n_queries * k);
-    const double limit_sq_m2 = max_dist_m * max_dist_m;
-    std::vector<Candidate> rows;
+    std::vector<SqrtCandidate> rows;
     for (std::size_t q = 0; q < n_queries; ++q) {
       const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
-      nearest_rows(query, k, max_dist_m, rows);
-      std::size_t written = 0;
-      for (const auto& [sq_m2, index] : rows) {
-        if (written == k || sq_m2 > limit_sq_m2) break;
-        out.push(index, sq_m2);
-        ++written;
-      }
-      out.end_query();
+      const auto nearest = [&](std::size_t n, double search_m, std::vector<SqrtCandidate>& found) {
+        search_sorted(query, n, search_m, found);
+      };
+      const auto within = [&](double search_m, std::vector<SqrtCandidate>& found) {
+        search_sorted(query, points_.size(), search_m, found);
+      };
+      exact_nearest_rows(query, k, max_dist_m, points_.size(), margin_, nearest, within, rows);
+      append_row(rows, k, max_dist_m * max_dist_m, out);
     }
-  }
-
-  // At least the k nearest within max_dist_m, sorted as brute force sorts them, ties at the k-th complete.
-  void nearest_rows(const double* query, std::size_t k, double max_dist_m, std::vector<Candidate>& rows) const {
-    const double margin_m = rounding_margin_m(query);
-    search_sorted(query, std::min(k + 1, points_.size()), widened_m(max_dist_m, query), rows);
-    // The search lost nothing nearer than its last bound (the (k+1)-th) minus the margin: unless the k-th
-    // lies that close to the (k+1)-th, the k nearest are right.
-    if (rows.size() <= k || std::sqrt(rows[k - 1].first) + margin_m < std::sqrt(rows[k].first)) return;
-    const double limit_sq_m2 = std::min(rows[k - 1].first, max_dist_m * max_dist_m);
-    search_sorted(query, points_.size(), widened_m(std::sqrt(limit_sq_m2), query), rows);
-    rows.erase(std::find_if(rows.begin(), rows.end(), [&](const Candidate& c) { return c.first > limit_sq_m2; }),
-               rows.end());
   }
 
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
     const auto n_queries = static_cast<std::size_t>(queries.cols());
     out.reset(n_queries);
     const double limit_sq_m2 = radius_m * radius_m;
-    std::vector<Candidate> rows;
+    std::vector<SqrtCandidate> rows;
     for (std::size_t q = 0; q < n_queries; ++q) {
       const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
-      search_sorted(query, points_.size(), widened_m(radius_m, query), rows);
-      for (const auto& [sq_m2, index] : rows) {
-        if (sq_m2 > limit_sq_m2) break;
-        out.push(index, sq_m2);
-      }
-      out.end_query();
+      search_sorted(query, points_.size(), margin_.widened_m(radius_m, query), rows);
+      append_row(rows, points_.size(), limit_sq_m2, out);
     }
   }
 
   std::vector<VpPoint> points_;
   Tree tree_;
   int bucket_ = 4;
-  Eigen::Vector3d centre_ = Eigen::Vector3d::Zero();
-  double diameter_m_ = 0.0;
+  SqrtMargin margin_;
   mutable std::vector<int> found_;  // Search's answer, reused: the adapter runs on one thread
 };
 
