@@ -130,7 +130,7 @@ def claim2(results):
             g = None if d1 is None else _growth(cells, d0, d1)
             if g is None:
                 numbers.append(f"{adapter} radius: did not run at {d0:.2f} m and 0.15 m beyond (last run "
-                               f"{run[-1][0] if run else '-'} m), not counted")
+                               f"{f'{run[-1][0]:.6g}' if run else '-'} m), not counted")
                 missing += 1
                 continue
             tested += 1

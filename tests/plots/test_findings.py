@@ -50,6 +50,19 @@ class FindingsTest(unittest.TestCase):
         finally:
             fixtures.kind_seconds = original
 
+    def test_claim2_names_a_stopped_series_last_distance_as_swept(self):
+        # A sweep's distances are i * step: 3 * 0.1 is 0.30000000000000004, and the verdict says 0.3.
+        records = fixtures.sweep_records(kind_factor={("ann_kdtree", "radius"): 6.0})
+        for rec in records:
+            if "max_dist" in rec:
+                rec["max_dist"] = round(rec["max_dist"] * 10) * 0.1
+        with tempfile.TemporaryDirectory() as tmp:
+            results = results_io.load([fixtures.write(Path(tmp) / "r.json", "paper", records)])
+        claim2 = {v.number: v for v in findings.evaluate(results, 0.1)}[2]
+        self.assertIn("ann_kdtree radius: did not run at 0.80 m and 0.15 m beyond (last run 0.3 m), not counted",
+                      claim2.numbers)
+        self.assertFalse([n for n in claim2.numbers if "00000" in n], claim2.numbers)
+
     def test_claim3_fails_when_cgal_is_fast(self):
         self.assertVerdict(verdicts(speed={"cgal_kdtree": 0.5}), 3, FAILS)
 
