@@ -82,10 +82,10 @@ class OpenCvFlann final : public SearchIndex {
 
   static cv::flann::SearchParams exact_params() { return cv::flann::SearchParams(cvflann::FLANN_CHECKS_UNLIMITED, 0.0f, true); }
 
-  cv::Mat query_row(const double* query) const {
-    cv::Mat row(1, 3, CV_32F);
-    for (int d = 0; d < 3; ++d) row.at<float>(0, d) = frame_.coord(query, d);
-    return row;
+  // The query in the frame, written into one row kept between queries rather than a Mat made for each.
+  const cv::Mat& query_row(const double* query) const {
+    for (int d = 0; d < 3; ++d) query_.at<float>(0, d) = frame_.coord(query, d);
+    return query_;
   }
 
   // radiusSearch for the nearest max_results within search_m (metres) of query; indices and sq_dists sized
@@ -167,8 +167,9 @@ class OpenCvFlann final : public SearchIndex {
   std::vector<float> points_;  // the model in float, row-major, relative to the frame's origin
   const Cloud* model_ = nullptr;
   std::unique_ptr<cv::flann::Index> index_;
-  // radiusSearch's outputs, kept between queries (one thread) so that each call reuses them, and how many
-  // results they hold: grown to the largest count a radius search has returned.
+  // radiusSearch's query and outputs, kept between queries (one thread) so that each call reuses them, and
+  // how many results the outputs hold: grown to the largest count a radius search has returned.
+  mutable cv::Mat query_ = cv::Mat(1, 3, CV_32F);
   mutable cv::Mat indices_;
   mutable cv::Mat sq_dists_;
   mutable int capacity_ = 64;
