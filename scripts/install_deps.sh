@@ -12,6 +12,7 @@ PACKAGES=(
   libbenchmark-dev libbenchmark-tools libgtest-dev libcli11-dev
   libvtk9-dev libboost-dev libembree-dev libkdtree++-dev libcneartree-dev libfaiss-dev libgeographiclib-dev
   libopencv-dev
+  libinsighttoolkit5-dev libgdcm-tools  # ITK; GDCM's CMake targets, which ITK's config loads, name its tools
   pybind11-dev python3-dev python3-scipy python3-pykdtree python3-sklearn
   python3 python3-matplotlib python3-numpy python3-plotly chromium
   slurm-wlm munge procps valgrind

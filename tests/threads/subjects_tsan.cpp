@@ -1,6 +1,7 @@
-// ThreadSanitizer sees only instrumented code: our trees, brute force and the header-only nanoflann,
-// compiled into the test with the API that splits a batch over threads. The libraries shipped compiled
-// are checked by the same test without it (their answers on threads against one thread).
+// ThreadSanitizer sees only instrumented code: our trees, brute force, the header-only nanoflann and ITK's
+// k-d tree (class templates), compiled into the test with the API that splits a batch over threads. The
+// libraries shipped compiled are checked by the same test without it (their answers on threads against one
+// thread).
 #include "subjects.hpp"
 
 namespace nnb::adapters {
@@ -10,6 +11,9 @@ std::unique_ptr<SearchIndex> make_ours_octree(const Params& params);
 std::unique_ptr<SearchIndex> make_nanoflann_kdtree(const Params& params);
 std::unique_ptr<SearchIndex> make_simple_kdtree(const Params& params);
 std::unique_ptr<SearchIndex> make_sfc_morton(const Params& params);
+#ifdef NNB_TSAN_WITH_ITK
+std::unique_ptr<SearchIndex> make_itk_kdtree(const Params& params);
+#endif
 }  // namespace nnb::adapters
 
 namespace nnb::testing {
@@ -22,6 +26,9 @@ std::vector<ThreadSubject> thread_subjects() {
                                       {"nanoflann_kdtree", make_nanoflann_kdtree, {}},
                                       {"simple_kdtree", make_simple_kdtree, {}},
                                       {"sfc_morton", make_sfc_morton, {}}};
+#ifdef NNB_TSAN_WITH_ITK
+  subjects.push_back({"itk_kdtree", make_itk_kdtree, {}});
+#endif
   add_variants(subjects);
   return subjects;
 }
