@@ -16,10 +16,10 @@ fi
 
 ./scripts/install_deps.sh g++-aarch64-linux-gnu qemu-user-static libstdc++6:arm64 libgtest-dev:arm64 libssl-dev:arm64
 
-# FLANN's and the embedded Python's CMake files sit in folders shared by every architecture and name the
-# host's libraries: off here.
+# FLANN's, ITK's and the embedded Python's CMake files sit in folders shared by every architecture and name
+# the host's libraries: off here.
 cmake -S . -B "${build}" -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/aarch64-linux-gnu.cmake \
-      -DCMAKE_BUILD_TYPE=Release -DNNB_WITH_FLANN=OFF -DNNB_WITH_PYTHON=OFF
+      -DCMAKE_BUILD_TYPE=Release -DNNB_WITH_FLANN=OFF -DNNB_WITH_ITK=OFF -DNNB_WITH_PYTHON=OFF
 . scripts/jobs.sh
 jobs=$(build_jobs)
 cmake --build "${build}" -j "${jobs}"
