@@ -166,16 +166,25 @@ def skip_handle():
 
 
 def legends_in(ax, adapters, classes, results, ncol=4, skip=True):
-    """Adapters (colour, marker) and line styles (strategy) as two legends filling an axis of their own."""
+    """Adapters (colour, marker) and line styles (strategy) as two legends filling an axis of their own: side by
+    side, or the line styles in a row below the adapters when the adapters' columns reach across to them."""
     ax.axis("off")
     first = ax.legend(handles=adapter_handles(adapters, results), loc="upper left", ncol=ncol, frameon=False,
                       title="adapter (colour: library, marker: structure)", alignment="left")
     ax.add_artist(first)
     first.set_clip_on(False)  # an added artist is clipped to the axis: a long list would lose its last rows
     extra = strategy_handles(classes) + ([skip_handle()] if skip else [])
-    if extra:
-        ax.legend(handles=extra, loc="upper right", ncol=1, frameon=False, alignment="left",
-                  title="line style: how the search is answered")
+    if not extra:
+        return
+    title = "line style: how the search is answered"
+    styles = ax.legend(handles=extra, loc="upper right", ncol=1, frameon=False, alignment="left", title=title)
+    renderer = ax.figure.canvas.get_renderer()
+    adapters_box = first.get_window_extent(renderer)
+    if adapters_box.x1 > styles.get_window_extent(renderer).x0:
+        below_y = adapters_box.transformed(ax.transAxes.inverted()).y0
+        styles = ax.legend(handles=extra, loc="upper left", bbox_to_anchor=(0, below_y), ncol=min(len(extra), 3),
+                           frameon=False, alignment="left", title=title)
+        styles.set_clip_on(False)
 
 
 def ranged_panels_figure(results, panels, draw, cols, panel_height, title, title_y):

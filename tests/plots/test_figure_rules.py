@@ -113,6 +113,25 @@ class FigureRulesTest(unittest.TestCase):
         self.assertLessEqual(saved.y0, shown.y0 + 1e-6)  # ... and is saved all the same
         style.plt.close(fig)
 
+    def test_a_wide_adapter_legend_puts_the_line_styles_below_it(self):
+        style.setup()
+        for names, beside in (([f"adapter_{i}" for i in range(12)], True),
+                              ([f"an_adapter_with_a_long_name_{i} (approx.)" for i in range(36)], False)):
+            fig = style.plt.figure(figsize=(13, 6))
+            grid_spec = fig.add_gridspec(2, 1, height_ratios=[3, 1.2])
+            fig.add_subplot(grid_spec[0])
+            legend_ax = fig.add_subplot(grid_spec[1])
+            style.legends_in(legend_ax, names, {"native", "via_knn"}, self.results)
+            fig.canvas.draw()
+            renderer = fig.canvas.get_renderer()
+            [adapters] = [a for a in legend_ax.artists if a is not legend_ax.get_legend()]
+            a, s = adapters.get_window_extent(renderer), legend_ax.get_legend().get_window_extent(renderer)
+            self.assertFalse(a.overlaps(s), f"{len(names)} adapters: the legends overlap")
+            self.assertEqual(s.x0 > a.x1, beside, f"{len(names)} adapters: line styles beside {s.x0 > a.x1}")
+            saved = fig.get_tightbbox(renderer).transformed(fig.dpi_scale_trans)
+            self.assertLessEqual(saved.y0, min(a.y0, s.y0) + 1e-6)  # both saved whole
+            style.plt.close(fig)
+
     def test_clouds_in_size_order(self):
         names = ["city-15k", "city-16m", "city-1m", "city-250k", "city-4m", "city-60k", "hollow_cube"]
         sizes = {"city-15k": 15e3, "city-60k": 6e4, "city-250k": 2.5e5, "city-1m": 1e6, "city-4m": 4e6, "city-16m": 1.6e7,
