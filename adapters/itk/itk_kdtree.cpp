@@ -2,8 +2,8 @@
 // ITK's point-set registration metrics search, over a VectorContainer of itk::Point<double, 3>. Its k-NN and
 // radius searches are its own; it has no ranged search (via k-NN by default, or via radius).
 //
-// Its distances are square roots (EuclideanDistanceMetric) and its pruning compares partial sums of squares
-// with their square: made exact as the other square-rooting libraries are (sqrt_libs/exact_sqrt.hpp).
+// Its distances are square roots (EuclideanDistanceMetric), compared with the squared offsets of a node's box
+// after squaring them again: made exact as the other square-rooting libraries are (sqrt_libs/exact_sqrt.hpp).
 #include <itkConfigure.h>
 #include <itkKdTree.h>
 #include <itkKdTreeGenerator.h>
@@ -78,8 +78,9 @@ class ItkKdTreeIndex final : public SearchIndex {
     info.notes =
         "sqrt distances: limits widened by 1e-12 of (query to model centre + model diameter), distances "
         "recomputed in double and cut at <= r; k-NN asks k+1 and, when the k-th and next are within that "
-        "margin, takes every point within the k-th distance and cuts to k; the generator is released after "
-        "the build, the tree and the points kept";
+        "margin, takes every point within the k-th distance and cuts to k; radii handed to the tree are at "
+        "least sqrt(DBL_MIN) (it prunes strictly on squares); the generator is released after the build, the "
+        "tree and the points kept";
     return info;
   }
 
