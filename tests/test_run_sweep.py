@@ -839,6 +839,18 @@ def check_plan_balanced():
     # brute force, the slow one, is weighted above the trees on the same data
     cost = {(u["model"], u["adapter"]): u["cost"] for u in plan["units"]}
     check(cost[("hollow_sphere", "brute_force")] > cost[("hollow_sphere", "ours_kdtree")], "adapter factor")
+    # the slow libraries' measured factors, where the build has them
+    listed = subprocess.run([str(Path(RUN_SWEEP).parent / "nns_query"), "--list"], capture_output=True, text=True,
+                            timeout=300).stdout
+    slow = [a for a in ("itk_kdtree", "hnswlib_hnsw") if a in listed]
+    if slow:
+        args = SHARD_RUN[:SHARD_RUN.index("--adapters")] + ["--adapters", ",".join(slow + ["ours_kdtree"]),
+                                                              "--datasets", "filled_cube"]
+        weighed = json.loads(run(args + ["--plan", "--json", "--shard", "0/2"]).stdout)
+        per_cell = {u["adapter"]: u["cost"] / u["cells"] for u in weighed["units"]}
+        for a in slow:
+            factor = per_cell[a] / per_cell["ours_kdtree"]
+            check(abs(factor - 8) < 1e-9, f"{a}'s factor: {factor}")
     text = run(SHARD_RUN + ["--plan", "--shard", "1/3"]).stdout
     check("3 shards" in text and "<- this shard" in text and "units of shard 1/3" in text, f"plan text:\n{text}")
     return plan
