@@ -128,6 +128,7 @@ class ItkKdTreeIndex final : public SearchIndex {
     Ids ids;
     std::vector<double> sqrt_dists;
     std::vector<SqrtCandidate> rows;
+    const double unlimited_m = std::numeric_limits<double>::infinity();
     for (std::size_t q = 0; q < n_queries; ++q) {
       const double* query = queries.col(static_cast<Eigen::Index>(q)).data();
       const ItkPoint probe = probe_of(query);
@@ -139,9 +140,8 @@ class ItkKdTreeIndex final : public SearchIndex {
         tree_->Search(probe, squarable_m(search_m), ids);
         sorted_rows(query, ids, search_m, found);
       };
-      const double unlimited_m = std::numeric_limits<double>::infinity();
       exact_nearest_rows(query, k_rows, unlimited_m, n_points, margin_, nearest, within, rows);
-      append_row(rows, k_rows, unlimited_m, out);
+      append_row(rows, k_rows, unlimited_m * unlimited_m, out);  // a squared limit, in m^2
     }
   }
 
