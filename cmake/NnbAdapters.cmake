@@ -17,6 +17,21 @@ function(nnb_add_adapter)
   set_property(GLOBAL APPEND PROPERTY NNB_PACKAGE_DEPENDENCIES ${A_FIND})
 endfunction()
 
+# Sets var to the x.y.z version of the installed Debian package, or "unknown": for libraries whose headers
+# state none.
+function(nnb_debian_package_version var package)
+  set(version "unknown")
+  find_program(NNB_DPKG_QUERY dpkg-query)
+  if(NNB_DPKG_QUERY)
+    execute_process(COMMAND ${NNB_DPKG_QUERY} -W -f=\${Version} ${package} OUTPUT_VARIABLE dpkg_version
+                    RESULT_VARIABLE dpkg_result ERROR_QUIET OUTPUT_STRIP_TRAILING_WHITESPACE)
+    if(dpkg_result EQUAL 0 AND dpkg_version MATCHES "^([0-9]+\\.[0-9]+\\.[0-9]+)")
+      set(version "${CMAKE_MATCH_1}")
+    endif()
+  endif()
+  set(${var} "${version}" PARENT_SCOPE)
+endfunction()
+
 function(nnb_finish_registry)
   get_property(targets GLOBAL PROPERTY NNB_ADAPTER_TARGETS)
   get_property(names GLOBAL PROPERTY NNB_ADAPTER_NAMES)
