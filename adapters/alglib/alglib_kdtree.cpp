@@ -37,7 +37,7 @@ auto checked(Call&& call) {
 }
 
 // A radius at least limit_m that the tree's rounded cell distances cannot prune a point within limit_m by,
-// and whose square is neither 0 (the library takes only R > 0) nor infinite.
+// and whose square is neither infinite nor 0 (a squared radius of 0 means no limit to it: every point).
 double widened_radius_m(double limit_m, const double* query) {
   static const double kSmallestSquarable_m = std::sqrt(DBL_MIN);
   const double scale = std::max({std::abs(query[0]), std::abs(query[1]), std::abs(query[2]), limit_m});
@@ -74,9 +74,9 @@ class AlglibKdTreeIndex final : public SearchIndex {
     info.concurrency = Concurrency::queries;  // the thread-safe calls, one request buffer a thread
     info.params = ParamReader(info.name, params).finish();
     info.notes =
-        "leaves of at most 8 points (fixed by the library); radii handed to it widened by 1e-12 of "
-        "max(|query|, r) and one ulp (at least sqrt(DBL_MIN): it takes only R > 0), rows cut at <= r on "
-        "distances recomputed from the model; the thread-safe calls with one request buffer a thread, kept "
+        "leaves of at most 8 points (fixed by the library); radii handed to it widened by 1e-12 of max(|query|, r) "
+        "and one ulp, and at least sqrt(DBL_MIN) (a squared radius of 0 returns every point); rows cut at <= r "
+        "on distances recomputed from the model; the thread-safe calls with one request buffer a thread, kept "
         "across batches";
     return info;
   }
