@@ -20,4 +20,5 @@ write_basic_package_version_file(${PROJECT_BINARY_DIR}/nnbConfigVersion.cmake VE
                                  COMPATIBILITY SameMinorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/nnbConfig.cmake ${PROJECT_BINARY_DIR}/nnbConfigVersion.cmake
               ${CMAKE_CURRENT_LIST_DIR}/FindNnbANN.cmake ${CMAKE_CURRENT_LIST_DIR}/FindNnbSpatialIndex.cmake
+              ${CMAKE_CURRENT_LIST_DIR}/FindNnbOpenVDB.cmake
         DESTINATION ${NNB_INSTALL_CMAKEDIR})

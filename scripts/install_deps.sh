@@ -11,7 +11,7 @@ PACKAGES=(
   libcgal-dev libpcl-dev libopen3d-dev libtbb-dev nlohmann-json3-dev
   libbenchmark-dev libbenchmark-tools libgtest-dev libcli11-dev
   libvtk9-dev libboost-dev libembree-dev libkdtree++-dev libcneartree-dev libfaiss-dev libgeographiclib-dev
-  libopencv-dev libhnswlib-dev libalglib-dev
+  libopencv-dev libhnswlib-dev libalglib-dev libopenvdb-dev
   libinsighttoolkit5-dev libgdcm-tools  # ITK; GDCM's CMake targets, which ITK's config loads, name its tools
   pybind11-dev python3-dev python3-scipy python3-pykdtree python3-sklearn
   python3 python3-matplotlib python3-numpy python3-plotly chromium
