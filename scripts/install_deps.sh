@@ -12,6 +12,7 @@ PACKAGES=(
   libbenchmark-dev libbenchmark-tools libgtest-dev libcli11-dev
   libvtk9-dev libboost-dev libembree-dev libkdtree++-dev libcneartree-dev libfaiss-dev libgeographiclib-dev
   libopencv-dev libhnswlib-dev libalglib-dev libopenvdb-dev
+  liblog4cplus-dev  # OpenVDB logs through log4cplus: its headers, to stop the thread pool it starts
   libinsighttoolkit5-dev libgdcm-tools  # ITK; GDCM's CMake targets, which ITK's config loads, name its tools
   pybind11-dev python3-dev python3-scipy python3-pykdtree python3-sklearn
   python3 python3-matplotlib python3-numpy python3-plotly chromium

@@ -12,6 +12,9 @@
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/tools/PointIndexGrid.h>
 #include <tbb/task_arena.h>
+#ifdef NNB_OPENVDB_STOPS_LOG4CPLUS
+#include <log4cplus/config.hxx>
+#endif
 
 #include "nnb/next_float.hpp"
 #include "nnb/registry.hpp"
@@ -25,6 +28,17 @@
 
 namespace nnb::adapters {
 namespace {
+
+#ifdef NNB_OPENVDB_STOPS_LOG4CPLUS
+// Debian's OpenVDB logs through log4cplus, whose library starts a pool of threads as it is loaded: every process
+// linking the adapters carried its idle threads, and a forked child hung at exit waiting for the ones fork did
+// not copy (Threads.AForkedChildAnswersOnThreadsOfItsOwnAndExits). Stopped at start: logging still works after,
+// on the calling thread.
+const bool kLog4cplusPoolStopped = [] {
+  log4cplus::deinitialize();
+  return true;
+}();
+#endif
 
 using Grid = openvdb::tools::PointIndexGrid;
 using Searcher = openvdb::tools::PointIndexIterator<openvdb::tools::PointIndexTree>;
