@@ -80,16 +80,19 @@ inline std::string shard_path(const std::string& path, const ShardSpec& shard) {
 }
 
 /// How much slower than a typical k-d tree an adapter is expected to be per search (libspatialindex,
-/// brute force, ITK's tree, hnswlib's graph, ALGLIB's tree and CGAL are the slow ones); 1 for the rest.
+/// brute force, ITK's tree, hnswlib's graph, ALGLIB's tree, OpenVDB's grid and CGAL are the slow ones); 1 for
+/// the rest.
 inline double adapter_cost_factor(const std::string& adapter) {
   // From the reference runs: libspatialindex takes seconds to minutes a call where a k-d tree takes a
   // tenth of a second; brute force about fifty times a k-d tree at 60,000 points. ITK's tree and hnswlib's
-  // graph, ALGLIB's tree: the median over the real pairs of their ranged 1-NN time over Debian nanoflann's,
-  // 7.8x, 8.7x and 4.7x (summary.txt in results/ab/itk_kdtree/, results/ab/hnswlib/, results/ab/alglib_kdtree/).
+  // graph, ALGLIB's tree, OpenVDB's grid: the median over the real pairs of their ranged 1-NN time over Debian
+  // nanoflann's, 7.8x, 8.7x, 4.7x and 4.4x (summary.txt in results/ab/itk_kdtree/, hnswlib/, alglib_kdtree/,
+  // openvdb_pointindex/).
   if (adapter.rfind("spatialindex_", 0) == 0) return 200.0;
   if (adapter == "brute_force") return 50.0;
   if (adapter == "itk_kdtree" || adapter == "hnswlib_hnsw") return 8.0;
   if (adapter == "alglib_kdtree") return 5.0;
+  if (adapter == "openvdb_pointindex") return 4.0;
   if (adapter.rfind("cgal", 0) == 0) return 2.0;
   return 1.0;
 }
@@ -99,7 +102,8 @@ inline std::string adapter_cost_factors_text() {
   return "brute_force " + shard_detail::fixed(adapter_cost_factor("brute_force"), 0) + ", spatialindex_* " +
          shard_detail::fixed(adapter_cost_factor("spatialindex_rstar"), 0) + ", itk_kdtree and hnswlib_hnsw " +
          shard_detail::fixed(adapter_cost_factor("itk_kdtree"), 0) + ", alglib_kdtree " +
-         shard_detail::fixed(adapter_cost_factor("alglib_kdtree"), 0) + ", cgal_kdtree " +
+         shard_detail::fixed(adapter_cost_factor("alglib_kdtree"), 0) + ", openvdb_pointindex " +
+         shard_detail::fixed(adapter_cost_factor("openvdb_pointindex"), 0) + ", cgal_kdtree " +
          shard_detail::fixed(adapter_cost_factor("cgal_kdtree"), 0) + ", others 1";
 }
 
