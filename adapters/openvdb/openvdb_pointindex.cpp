@@ -88,11 +88,11 @@ class OpenVdbPointIndex final : public SearchIndex {
     info.params = reader.finish();
     info.notes =
         "voxel size from points::computeVoxelSize (OpenVDB's own, for points_per_voxel), at least 2^-20 of the "
-        "box's longest edge, in a frame centred on the box; radii widened by 1e-12 of (|query| + |centre| + "
-        "extent + r) and one ulp (its tests are strict and in voxel units), rows cut at <= r on distances "
-        "recomputed from the model; queries farther than r from the box skipped, balls reaching 2^28 voxels "
-        "searched as the box; k-NN doubles a radius from max(voxel, distance to the box) until k points lie "
-        "within it";
+        "box's longest edge, in a frame centred on the box; radii widened by 1e-12 of (|query| + |centre| + the "
+        "box's diagonal + r) and one ulp (its tests are strict and in voxel units), rows cut at <= r on "
+        "distances recomputed from the model; queries farther than r from the box skipped, balls reaching 2^28 "
+        "voxels searched as the box; k-NN doubles a radius from max(voxel, distance to the box) until k points "
+        "lie within it; log4cplus's thread pool stopped at start";
     return info;
   }
 
