@@ -163,9 +163,12 @@ class AlglibKdTreeIndex final : public SearchIndex {
     }
   }
 
-  void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
+  // Appends a row for each query: the points search(buffer, x, query) found (it returns their number) within
+  // limit_sq_m2; sorted again where the library's order is nearest first (keep_sorted).
+  template <class Search>
+  void answer_each(const Cloud& queries, double limit_sq_m2, bool keep_sorted, Search&& search,
+                   Neighbours& out) const {
     const Lease lease(*this);
-    out.reset(static_cast<std::size_t>(queries.cols()), static_cast<std::size_t>(queries.cols() * k));
     alglib::real_1d_array x;
     x.setlength(3);
     alglib::integer_1d_array tags;
@@ -173,30 +176,29 @@ class AlglibKdTreeIndex final : public SearchIndex {
       for (Eigen::Index q = 0; q < queries.cols(); ++q) {
         const double* query = queries.col(q).data();
         for (int d = 0; d < 3; ++d) x[d] = query[d];
-        const alglib::ae_int_t found = alglib::kdtreetsqueryknn(tree_, lease.buffer(), x, k, /*selfmatch*/ true);
-        append_found(lease, found, query, INFINITY, tags, out);
-        keep_last_row_sorted(out);
+        append_found(lease, search(lease.buffer(), x, query), query, limit_sq_m2, tags, out);
+        if (keep_sorted) keep_last_row_sorted(out);
       }
     });
   }
 
+  void do_knn(const Cloud& queries, int k, Neighbours& out) const override {
+    out.reset(static_cast<std::size_t>(queries.cols()), static_cast<std::size_t>(queries.cols() * k));
+    answer_each(queries, INFINITY, /*keep_sorted*/ true,
+                [&](const alglib::kdtreerequestbuffer& buffer, const alglib::real_1d_array& x, const double*) {
+                  return alglib::kdtreetsqueryknn(tree_, buffer, x, k, /*selfmatch*/ true);
+                },
+                out);
+  }
+
   void do_radius(const Cloud& queries, double radius_m, Neighbours& out) const override {
-    const Lease lease(*this);
     out.reset(static_cast<std::size_t>(queries.cols()));
-    const double limit_sq_m2 = radius_m * radius_m;
-    alglib::real_1d_array x;
-    x.setlength(3);
-    alglib::integer_1d_array tags;
-    checked([&] {
-      for (Eigen::Index q = 0; q < queries.cols(); ++q) {
-        const double* query = queries.col(q).data();
-        for (int d = 0; d < 3; ++d) x[d] = query[d];
-        // Unordered (the "u" call): rows of a radius search come in the library's order.
-        const alglib::ae_int_t found =
-            alglib::kdtreetsqueryrnnu(tree_, lease.buffer(), x, widened_radius_m(radius_m, query), true);
-        append_found(lease, found, query, limit_sq_m2, tags, out);
-      }
-    });
+    // Unordered (the "u" call): rows of a radius search come in the library's order.
+    answer_each(queries, radius_m * radius_m, /*keep_sorted*/ false,
+                [&](const alglib::kdtreerequestbuffer& buffer, const alglib::real_1d_array& x, const double* query) {
+                  return alglib::kdtreetsqueryrnnu(tree_, buffer, x, widened_radius_m(radius_m, query), true);
+                },
+                out);
   }
 
   alglib::kdtree tree_;
