@@ -78,7 +78,9 @@ while IFS=$'\t' read -r folder file sha url; do
     echo "fetch_data: ${folder}/${file} is there but its sha256 differs; fetching it again" >&2
   fi
   mkdir -p "${dest}/${folder}" || die "cannot create ${dest}/${folder}"
-  tmp="$(mktemp "${dest}/${folder}/.${file}.XXXXXX")" || die "cannot write in ${dest}/${folder}"
+  # Named before it is made, so that a signal at any point leaves the trap its name.
+  tmp="${dest}/${folder}/.${file}.$$.${RANDOM}"
+  (set -o noclobber; : > "${tmp}") 2>/dev/null || die "cannot write in ${dest}/${folder}"
   if [[ "${url}" == "-" ]]; then
     from="the manifest"
     python3 -c 'import json, sys

@@ -58,7 +58,15 @@ def main(script, nns_query, work):
     run(script, common + ["--adapters", f"ours_kdtree,{variant}", "--out", str(labelled)], 0)
     both = {r["adapter"]: r for r in rows_of(labelled)}
     assert sorted(both) == ["ours_kdtree", variant], f"rows {sorted(both)}"
-    assert both["ours_kdtree"] == tree, f"a second run counted otherwise: {both['ours_kdtree']} against {tree}"
+    # the same instructions and branches exactly; simulated cache misses depend on where the heap lies too, which
+    # threads a library starts as it is loaded (log4cplus, under OpenVDB) may move by a little between processes
+    again = both["ours_kdtree"]
+    layout = ("d1_misses", "ll_misses")
+    assert {k: v for k, v in again.items() if k not in layout} == {k: v for k, v in tree.items() if k not in layout}, \
+        f"a second run counted otherwise: {again} against {tree}"
+    for k in layout:
+        assert abs(float(again[k]) - float(tree[k])) <= max(0.1, 0.02 * float(tree[k])) + 1e-9, \
+            f"a second run missed otherwise: {again} against {tree}"
     assert both[variant]["found"] == tree["found"], f"{both[variant]} against {tree}"
     assert both[variant]["instructions"] != tree["instructions"], f"the parameters changed nothing: {both}"
     # --resume keeps the rows there and counts only the others; other settings are refused
